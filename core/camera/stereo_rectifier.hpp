@@ -1,0 +1,42 @@
+#pragma once
+/// Undistortion + rectification maps computed once from the calibration (OpenCV
+/// stereoRectify + initUndistortRectifyMap), paper section III step 1.
+#include <optional>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "core/camera/camera_model.hpp"
+#include "core/camera/rectified_rig.hpp"
+
+namespace seavio::camera {
+
+class StereoRectifier {
+ public:
+  /// Builds the maps; `alpha` as in cv::stereoRectify (0 = only valid pixels).
+  /// Returns nullopt and sets `error` if the calibration is unusable.
+  static std::optional<StereoRectifier> create(const StereoCalibration& calib, std::string* error,
+                                               double alpha = 0.0);
+
+  const RectifiedRig& rig() const { return rig_; }
+  const StereoCalibration& calibration() const { return calib_; }
+
+  /// Remaps a raw pair into the rectified pair (bilinear). Output buffers are reused.
+  void rectify(const cv::Mat& left_raw, const cv::Mat& right_raw, cv::Mat& left_rect,
+               cv::Mat& right_rect) const;
+  /// Raw distorted pixel of camera `cam` (0/1) -> rectified pixel.
+  Eigen::Vector2d rectifyPoint(int cam, const Eigen::Vector2d& uv_raw) const;
+
+  Eigen::Matrix3d R_R0_C0() const { return R_R0_C0_; }  ///< raw left -> rectified left rotation
+  Eigen::Matrix3d R_R1_C1() const { return R_R1_C1_; }
+
+ private:
+  StereoCalibration calib_;
+  RectifiedRig rig_;
+  Eigen::Matrix3d R_R0_C0_ = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d R_R1_C1_ = Eigen::Matrix3d::Identity();
+  cv::Mat P0_, P1_;
+  cv::Mat map0x_, map0y_, map1x_, map1y_;
+};
+
+}  // namespace seavio::camera

@@ -1,0 +1,85 @@
+#pragma once
+/// Value types that flow through the pipeline (ARCHITECTURE.md, "Core types").
+#include <cstdint>
+#include <functional>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+namespace seavio {
+
+/// One stereo pair as it leaves the cameras: 8-bit grey, unrectified.
+struct StereoFrame {
+  int64_t t_ns = 0;   ///< capture time on the process' monotonic clock [ns]
+  uint64_t seq = 0;   ///< sequence number from the source (gaps = dropped frames)
+  cv::Mat left;       ///< CV_8UC1, camera 0
+  cv::Mat right;      ///< CV_8UC1, camera 1
+};
+
+/// One IMU measurement in the body (IMU) frame B.
+struct ImuSample {
+  int64_t t_ns = 0;                                    ///< [ns]
+  Eigen::Vector3d gyro_rad_s = Eigen::Vector3d::Zero();  ///< angular rate [rad/s]
+  Eigen::Vector3d accel_m_s2 = Eigen::Vector3d::Zero();  ///< specific force [m/s^2]
+};
+
+/// Full navigation state of the body in the gravity-aligned world frame W (z up).
+struct NavState {
+  int64_t t_ns = 0;
+  Eigen::Isometry3d T_W_B = Eigen::Isometry3d::Identity();  ///< body -> world
+  Eigen::Vector3d v_W = Eigen::Vector3d::Zero();            ///< velocity in W [m/s]
+  Eigen::Vector3d gyro_bias_rad_s = Eigen::Vector3d::Zero();
+  Eigen::Vector3d accel_bias_m_s2 = Eigen::Vector3d::Zero();
+};
+
+/// Where a published pose came from.
+enum class PoseSource : uint8_t {
+  kInit = 0,     ///< first frame: the world origin
+  kVision = 1,   ///< visual estimate (tensor + ICP)
+  kImuOnly = 2,  ///< vision failed this frame: IMU dead reckoning, flagged
+};
+
+/// Per-stage wall time of one frame [ms] (the paper's Table II columns and more).
+struct StageTimes {
+  double rectify_ms = 0;
+  double features_ms = 0;
+  double stereo_ms = 0;
+  double temporal_ms = 0;
+  double tensor_ms = 0;
+  double icp_ms = 0;
+  double total_ms = 0;
+};
+
+/// Quality figures of one frame.
+struct Quality {
+  int features_left = 0;
+  int features_right = 0;
+  int stereo_matches = 0;
+  int temporal_matches = 0;
+  int ransac_inliers = 0;
+  int icp_iterations = 0;
+  int icp_inliers = 0;
+  double icp_rms_m = 0;
+  int model_points = 0;
+  double detector_threshold = 0;
+};
+
+/// What `Odometry::process` returns for each stereo frame.
+struct OdometryResult {
+  int64_t t_ns = 0;
+  uint64_t seq = 0;
+  Eigen::Isometry3d T_W_B = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d v_W = Eigen::Vector3d::Zero();
+  /// Pose covariance, tangent order (rotation [rad], translation [m]) in W.
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Identity();
+  PoseSource source = PoseSource::kInit;
+  Quality quality;
+  StageTimes times;
+};
+
+/// Monotonic time source injected into core so that core itself owns no clock.
+/// Returns nanoseconds; the default (null) means "don't time".
+using NowNsFn = std::function<int64_t()>;
+
+}  // namespace seavio

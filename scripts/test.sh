@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# Builds seavio and runs the whole test suite (ctest). Second README command; CI calls it.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh
+BUILD=${SEAVIO_BUILD_DIR:-build}
+cmake -S . -B "$BUILD" -DCMAKE_BUILD_TYPE=${SEAVIO_BUILD_TYPE:-Release} ${SEAVIO_CMAKE_ARGS:-}
+cmake --build "$BUILD" -j"$(nproc)"
+ctest --test-dir "$BUILD" --output-on-failure -j"$(nproc)" --timeout 600
