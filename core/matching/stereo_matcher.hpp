@@ -1,0 +1,43 @@
+#pragma once
+/// Stereo matching along rectified rows and triangulation (paper section III, "spatially
+/// matched using epipolar constraints ... back-projection into 3D space").
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "core/camera/rectified_rig.hpp"
+
+namespace seavio::matching {
+
+struct StereoMatchParams {
+  double min_range_m = 1.5;          ///< nearest floor distance expected along the optical axis [m]
+  double max_range_m = 12.0;         ///< farthest [m]; with min_range sets the disparity window
+  double max_row_difference_px = 1.0;  ///< rectified rows agree to this [px]
+  float max_descriptor_distance = 0.35f;  ///< L2 (normalised float) or bits/256 scaled for binary
+  float ratio = 0.8f;                ///< Lowe ratio test, best / second best
+  bool left_right_check = true;      ///< keep only mutual best matches
+};
+
+/// One feature seen in both rectified images of a pair, with its 3D point in R0.
+struct StereoPoint {
+  int left_index = -1;    ///< into the left keypoints/descriptors
+  int right_index = -1;   ///< into the right keypoints/descriptors
+  Eigen::Vector2f uv_left = Eigen::Vector2f::Zero();   ///< rectified left pixel
+  Eigen::Vector2f uv_right = Eigen::Vector2f::Zero();  ///< rectified right pixel
+  Eigen::Vector3f p_R0 = Eigen::Vector3f::Zero();      ///< triangulated point in R0 [m]
+};
+
+/// Matches left to right keypoints on (nearly) the same rectified row within the disparity
+/// window, by descriptor distance with ratio test and left-right consistency, then
+/// triangulates. Keypoints whose `class_id` holds the sign of the Laplacian (SURF) are only
+/// compared with keypoints of the same sign. Descriptors: one row per keypoint.
+std::vector<StereoPoint> matchStereo(const std::vector<cv::KeyPoint>& left, const cv::Mat& left_descriptors,
+                                     const std::vector<cv::KeyPoint>& right, const cv::Mat& right_descriptors,
+                                     const camera::RectifiedRig& rig, const StereoMatchParams& params);
+
+/// Threshold in the descriptor's own unit: `max_descriptor_distance` for float descriptors,
+/// scaled to bits for binary ones.
+float descriptorThreshold(const cv::Mat& descriptors, float max_descriptor_distance);
+
+}  // namespace seavio::matching

@@ -1,0 +1,122 @@
+#include "core/matching/temporal_matcher.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "core/matching/descriptor_distance.hpp"
+
+namespace seavio::matching {
+namespace {
+
+/// Uniform grid over the current left image so a window query touches few points.
+class PixelGrid {
+ public:
+  PixelGrid(const std::vector<StereoPoint>& pts, int width, int height, int cell_px)
+      : cell_(cell_px), cols_(std::max(1, (width + cell_px - 1) / cell_px)), rows_(std::max(1, (height + cell_px - 1) / cell_px)) {
+    cells_.assign(static_cast<std::size_t>(cols_ * rows_), {});
+    for (std::size_t i = 0; i < pts.size(); ++i) cells_[cellOf(pts[i].uv_left)].push_back(static_cast<int>(i));
+  }
+  template <typename F>
+  void query(const Eigen::Vector2d& c, double r, F&& f) const {
+    const int x0 = std::clamp(static_cast<int>((c.x() - r) / cell_), 0, cols_ - 1);
+    const int x1 = std::clamp(static_cast<int>((c.x() + r) / cell_), 0, cols_ - 1);
+    const int y0 = std::clamp(static_cast<int>((c.y() - r) / cell_), 0, rows_ - 1);
+    const int y1 = std::clamp(static_cast<int>((c.y() + r) / cell_), 0, rows_ - 1);
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x)
+        for (int i : cells_[static_cast<std::size_t>(y * cols_ + x)]) f(i);
+  }
+
+ private:
+  std::size_t cellOf(const Eigen::Vector2f& uv) const {
+    const int x = std::clamp(static_cast<int>(uv.x()) / cell_, 0, cols_ - 1);
+    const int y = std::clamp(static_cast<int>(uv.y()) / cell_, 0, rows_ - 1);
+    return static_cast<std::size_t>(y * cols_ + x);
+  }
+  int cell_, cols_, rows_;
+  std::vector<std::vector<int>> cells_;
+};
+
+}  // namespace
+
+double predictionWindowPx(const camera::RectifiedRig& rig, double z_m, const Eigen::Matrix<double, 6, 6>& covariance,
+                          const TemporalMatchParams& params) {
+  // First-order image motion of a point at depth z: f * (dtheta + dt / z).
+  const double sigma_rot = std::sqrt(std::max(0.0, covariance.topLeftCorner<3, 3>().trace()));
+  const double sigma_trans = std::sqrt(std::max(0.0, covariance.bottomRightCorner<3, 3>().trace()));
+  const double sigma_px = rig.f_px * (sigma_rot + sigma_trans / std::max(z_m, 0.1));
+  return std::clamp(params.sigma_multiplier * sigma_px + params.min_window_px, params.min_window_px,
+                    params.max_window_px);
+}
+
+std::vector<TemporalMatch> matchTemporal(const StereoFeatures& prev, const StereoFeatures& curr,
+                                         const camera::RectifiedRig& rig, const Eigen::Isometry3d& T_prev_curr,
+                                         const Eigen::Matrix<double, 6, 6>& covariance,
+                                         const TemporalMatchParams& params) {
+  std::vector<TemporalMatch> out;
+  if (prev.points.empty() || curr.points.empty()) return out;
+  const float max_dist = descriptorThreshold(curr.descriptors, params.max_descriptor_distance);
+  const Eigen::Isometry3d T_curr_prev = T_prev_curr.inverse();
+  const PixelGrid grid(curr.points, rig.width, rig.height, 24);
+  const double whole_image = std::hypot(rig.width, rig.height);
+
+  // Best current candidate per previous point, and best previous per current (mutual check).
+  std::vector<TemporalMatch> best(prev.points.size());
+  std::vector<float> second(prev.points.size(), std::numeric_limits<float>::max());
+  std::vector<int> best_prev_of_curr(curr.points.size(), -1);
+  std::vector<float> best_prev_dist(curr.points.size(), std::numeric_limits<float>::max());
+
+  for (std::size_t i = 0; i < prev.points.size(); ++i) {
+    const StereoPoint& sp = prev.points[i];
+    const Eigen::Vector3d p_curr = T_curr_prev * sp.p_R0.cast<double>();
+    Eigen::Vector2d uv_l(sp.uv_left.cast<double>()), uv_r(sp.uv_right.cast<double>());
+    double radius = whole_image;
+    if (params.use_prediction) {
+      if (p_curr.z() <= 0.05) continue;
+      uv_l = rig.project(p_curr, 0);
+      uv_r = rig.project(p_curr, 1);
+      radius = predictionWindowPx(rig, p_curr.z(), covariance, params);
+    }
+    const int sign = prev.laplacian_sign.empty() ? -1 : prev.laplacian_sign[i];
+    best[i].prev = static_cast<int>(i);
+    best[i].distance = std::numeric_limits<float>::max();
+    auto consider = [&](int j) {
+      const StereoPoint& cp = curr.points[static_cast<std::size_t>(j)];
+      if (params.use_prediction) {
+        if ((cp.uv_left.cast<double>() - uv_l).squaredNorm() > radius * radius) return;
+        if ((cp.uv_right.cast<double>() - uv_r).squaredNorm() > radius * radius) return;
+      }
+      const int csign = curr.laplacian_sign.empty() ? -1 : curr.laplacian_sign[static_cast<std::size_t>(j)];
+      if (sign >= 0 && csign >= 0 && sign != csign) return;
+      const float d = descriptorDistance(prev.descriptors, static_cast<int>(i), curr.descriptors, j);
+      if (d < best[i].distance) {
+        second[i] = best[i].distance;
+        best[i].distance = d;
+        best[i].curr = j;
+      } else if (d < second[i]) {
+        second[i] = d;
+      }
+      if (d < best_prev_dist[static_cast<std::size_t>(j)]) {
+        best_prev_dist[static_cast<std::size_t>(j)] = d;
+        best_prev_of_curr[static_cast<std::size_t>(j)] = static_cast<int>(i);
+      }
+    };
+    if (params.use_prediction) {
+      grid.query(uv_l, radius, consider);
+    } else {
+      for (std::size_t j = 0; j < curr.points.size(); ++j) consider(static_cast<int>(j));
+    }
+  }
+  out.reserve(prev.points.size());
+  for (std::size_t i = 0; i < best.size(); ++i) {
+    const TemporalMatch& m = best[i];
+    if (m.curr < 0 || m.distance > max_dist) continue;
+    if (second[i] < std::numeric_limits<float>::max() && m.distance > params.ratio * second[i]) continue;
+    if (best_prev_of_curr[static_cast<std::size_t>(m.curr)] != static_cast<int>(i)) continue;
+    out.push_back(m);
+  }
+  return out;
+}
+
+}  // namespace seavio::matching

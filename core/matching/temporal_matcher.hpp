@@ -1,0 +1,52 @@
+#pragma once
+/// Inter-frame matching pruned by the IMU prediction (paper section III-C): every stereo
+/// point of the previous frame is moved with the predicted motion and projected into the
+/// current left and right images; candidates are searched only inside a window sized by the
+/// prediction's uncertainty.
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include "core/camera/rectified_rig.hpp"
+#include "core/matching/stereo_matcher.hpp"
+
+namespace seavio::matching {
+
+struct TemporalMatchParams {
+  bool use_prediction = true;        ///< false = search the whole image (for comparison)
+  double sigma_multiplier = 3.0;     ///< window half-size = this * predicted pixel sigma + min
+  double min_window_px = 6.0;        ///< [px] floor on the half-size (feature localisation)
+  double max_window_px = 120.0;      ///< [px] cap; beyond it the prediction is not trusted
+  float max_descriptor_distance = 0.35f;
+  float ratio = 0.85f;
+};
+
+/// A stereo point of the previous frame matched to one of the current frame.
+struct TemporalMatch {
+  int prev = -1;  ///< index into the previous frame's StereoPoints
+  int curr = -1;  ///< index into the current frame's StereoPoints
+  float distance = 0;
+};
+
+/// One frame's matchable content: its stereo points and the left descriptors of their
+/// keypoints (row i of `descriptors` belongs to `points[i]`).
+struct StereoFeatures {
+  std::vector<StereoPoint> points;
+  cv::Mat descriptors;
+  std::vector<int> laplacian_sign;  ///< per point, from the keypoint's class_id (-1 = unknown)
+};
+
+/// Matches `prev` to `curr` given the predicted motion T_prev_curr (maps points of the
+/// current R0 into the previous R0) and its 6x6 covariance (rotation [rad], translation [m]).
+std::vector<TemporalMatch> matchTemporal(const StereoFeatures& prev, const StereoFeatures& curr,
+                                         const camera::RectifiedRig& rig, const Eigen::Isometry3d& T_prev_curr,
+                                         const Eigen::Matrix<double, 6, 6>& covariance,
+                                         const TemporalMatchParams& params);
+
+/// Half-size of the search window [px] for a point at depth z_m given the motion covariance.
+double predictionWindowPx(const camera::RectifiedRig& rig, double z_m, const Eigen::Matrix<double, 6, 6>& covariance,
+                          const TemporalMatchParams& params);
+
+}  // namespace seavio::matching
