@@ -6,7 +6,7 @@ PACKAGES=(
   build-essential cmake pkg-config git
   libopencv-dev libeigen3-dev libnanoflann-dev
   liblcm-dev liblcm-bin
-  libaravis-dev aravis-tools-cli
+  libaravis-dev aravis-tools-cli libusb-1.0-0-dev
   libsystemd-dev libyaml-cpp-dev libspdlog-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev libreaderwriterqueue-dev
   libcamera-dev

@@ -13,7 +13,8 @@ namespace seavio::camera {
 
 class StereoRectifier {
  public:
-  /// Builds the maps; `alpha` as in cv::stereoRectify (0 = only valid pixels).
+  /// Builds the maps; `alpha` as in cv::stereoRectify (0 = only valid pixels); for
+  /// equidistant lenses it is cv::fisheye::stereoRectify's `balance` (0 = no black border).
   /// Returns nullopt and sets `error` if the calibration is unusable.
   static std::optional<StereoRectifier> create(const StereoCalibration& calib, std::string* error,
                                                double alpha = 0.0);
@@ -35,8 +36,9 @@ class StereoRectifier {
   RectifiedRig rig_;
   Eigen::Matrix3d R_R0_C0_ = Eigen::Matrix3d::Identity();
   Eigen::Matrix3d R_R1_C1_ = Eigen::Matrix3d::Identity();
-  cv::Mat P0_, P1_;
-  cv::Mat map0x_, map0y_, map1x_, map1y_;
+  cv::Mat R0_, R1_;  ///< OpenCV rectification rotations (R_R0_C0, R_R1_C1)
+  cv::Mat P0_, P1_;  ///< rectified projection matrices, 3x4
+  cv::Mat map0a_, map0b_, map1a_, map1b_;  ///< fixed-point remap tables (CV_16SC2 + CV_16UC1)
 };
 
 }  // namespace seavio::camera

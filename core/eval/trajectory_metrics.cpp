@@ -1,0 +1,171 @@
+#include "core/eval/trajectory_metrics.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/SVD>
+
+namespace seavio::eval {
+namespace {
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+
+/// Ground truth at time t: interpolated between neighbours when t falls between two
+/// samples not more than max_interp_gap apart, else the nearest within max_dt.
+bool groundTruthAt(const std::vector<TimedPose>& gt, int64_t t, const EvalParams& p, Eigen::Isometry3d& out) {
+  const auto it = std::lower_bound(gt.begin(), gt.end(), t, [](const TimedPose& a, int64_t v) { return a.t_ns < v; });
+  if (it != gt.end() && it->t_ns == t) {
+    out = it->T_W_B;
+    return true;
+  }
+  if (it != gt.begin() && it != gt.end()) {
+    const TimedPose& a = *(it - 1);
+    const TimedPose& b = *it;
+    if (b.t_ns - a.t_ns <= p.max_interp_gap_ns) {
+      out = interpolate(a.T_W_B, b.T_W_B, double(t - a.t_ns) / double(b.t_ns - a.t_ns));
+      return true;
+    }
+  }
+  int64_t best = p.max_dt_ns + 1;
+  if (it != gt.end() && it->t_ns - t < best) {
+    best = it->t_ns - t;
+    out = it->T_W_B;
+  }
+  if (it != gt.begin() && t - (it - 1)->t_ns < best) {
+    best = t - (it - 1)->t_ns;
+    out = (it - 1)->T_W_B;
+  }
+  return best <= p.max_dt_ns;
+}
+
+}  // namespace
+
+Eigen::Isometry3d interpolate(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, double s) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  const Eigen::Quaterniond qa(a.rotation()), qb(b.rotation());
+  T.linear() = qa.slerp(s, qb).toRotationMatrix();
+  T.translation() = (1.0 - s) * a.translation() + s * b.translation();
+  return T;
+}
+
+Eigen::Isometry3d alignUmeyama(const std::vector<Eigen::Vector3d>& src, const std::vector<Eigen::Vector3d>& dst) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  const std::size_t n = std::min(src.size(), dst.size());
+  if (n == 0) return T;
+  Eigen::Vector3d ms = Eigen::Vector3d::Zero(), md = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < n; ++i) {
+    ms += src[i];
+    md += dst[i];
+  }
+  ms /= double(n);
+  md /= double(n);
+  Eigen::Matrix3d S = Eigen::Matrix3d::Zero();
+  for (std::size_t i = 0; i < n; ++i) S += (dst[i] - md) * (src[i] - ms).transpose();
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(S, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0) D(2, 2) = -1;
+  T.linear() = svd.matrixU() * D * svd.matrixV().transpose();
+  T.translation() = md - T.linear() * ms;
+  return T;
+}
+
+TrajectoryMetrics evaluateTrajectory(const std::vector<TimedPose>& gt, const std::vector<TimedPose>& est,
+                                     const EvalParams& params) {
+  TrajectoryMetrics m;
+  m.gt_poses = int(gt.size());
+  m.est_poses = int(est.size());
+  if (gt.empty() || est.empty()) return m;
+
+  std::vector<Eigen::Isometry3d> G, E;
+  for (const auto& e : est) {
+    Eigen::Isometry3d g;
+    if (!groundTruthAt(gt, e.t_ns, params, g)) continue;
+    G.push_back(g);
+    E.push_back(e.T_W_B);
+    m.t_ns.push_back(e.t_ns);
+  }
+  m.associated = int(G.size());
+
+  // Coverage: a ground-truth sample is covered when an estimate lies within 1.5 estimate
+  // periods of it (max_dt at least), so a 20 Hz estimate covers 200 Hz truth while a
+  // trajectory that stops early or drops a stretch of frames does not.
+  std::vector<int64_t> dts;
+  for (std::size_t i = 1; i < est.size(); ++i) dts.push_back(est[i].t_ns - est[i - 1].t_ns);
+  int64_t period = 0;
+  if (!dts.empty()) {
+    std::nth_element(dts.begin(), dts.begin() + dts.size() / 2, dts.end());
+    period = dts[dts.size() / 2];
+  }
+  const int64_t cover_dt = std::max<int64_t>(params.max_dt_ns, period * 3 / 2);
+  int covered = 0;
+  for (const auto& g : gt) {
+    if (g.t_ns >= est.front().t_ns && g.t_ns <= est.back().t_ns) ++m.gt_in_span;
+    const auto it =
+        std::lower_bound(est.begin(), est.end(), g.t_ns, [](const TimedPose& a, int64_t v) { return a.t_ns < v; });
+    bool near = it != est.end() && it->t_ns - g.t_ns <= cover_dt;
+    near = near || (it != est.begin() && g.t_ns - (it - 1)->t_ns <= cover_dt);
+    covered += near ? 1 : 0;
+  }
+  m.coverage = double(covered) / double(gt.size());
+  m.incomplete = m.associated == 0 || m.coverage < params.min_coverage;
+  if (G.empty()) return m;
+
+  const std::size_t n = G.size();
+  // Paper Table I: align on the first pose only, so the error is the drift accumulated
+  // from the start.
+  const Eigen::Isometry3d T_align = G[0] * E[0].inverse();
+  double sum = 0, sum2 = 0, dist = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (i > 0) dist += (G[i].translation() - G[i - 1].translation()).norm();
+    const Eigen::Vector3d e = (T_align * E[i]).translation();
+    const double err = (e - G[i].translation()).norm();
+    m.distance_along_m.push_back(dist);
+    m.error_m.push_back(err);
+    m.gt_position.push_back(G[i].translation());
+    m.est_first_aligned.push_back(e);
+    sum += err;
+    sum2 += err * err;
+    m.max_error_m = std::max(m.max_error_m, err);
+  }
+  m.mean_error_m = sum / double(n);
+  m.std_error_m = std::sqrt(std::max(0.0, sum2 / double(n) - m.mean_error_m * m.mean_error_m));
+  m.final_error_m = m.error_m.back();
+  m.distance_m = dist;
+  if (dist > 0) {
+    m.mean_error_pct = 100.0 * m.mean_error_m / dist;
+    m.final_error_pct = 100.0 * m.final_error_m / dist;
+  }
+
+  std::vector<Eigen::Vector3d> est_pos(n);
+  for (std::size_t i = 0; i < n; ++i) est_pos[i] = E[i].translation();
+  const Eigen::Isometry3d T_u = n >= 3 ? alignUmeyama(est_pos, m.gt_position) : T_align;
+  double ate2 = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3d e = T_u * est_pos[i];
+    m.est_umeyama_aligned.push_back(e);
+    ate2 += (e - G[i].translation()).squaredNorm();
+  }
+  m.ate_rmse_m = std::sqrt(ate2 / double(n));
+
+  // Relative pose error over segments of rpe_segment_m of ground-truth travel, from every
+  // start pose, normalised by the segment's actual length.
+  double rt = 0, rr = 0;
+  std::size_t j = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    j = std::max(j, i + 1);
+    while (j < n && m.distance_along_m[j] - m.distance_along_m[i] < params.rpe_segment_m) ++j;
+    if (j >= n) break;
+    const double len = m.distance_along_m[j] - m.distance_along_m[i];
+    const Eigen::Isometry3d d = (G[i].inverse() * G[j]).inverse() * (E[i].inverse() * E[j]);
+    rt += 100.0 * d.translation().norm() / len;
+    rr += Eigen::AngleAxisd(d.rotation()).angle() * kRadToDeg / len;
+    ++m.rpe_segments;
+  }
+  if (m.rpe_segments > 0) {
+    m.rpe_trans_pct = rt / m.rpe_segments;
+    m.rpe_rot_deg_per_m = rr / m.rpe_segments;
+  }
+  return m;
+}
+
+}  // namespace seavio::eval

@@ -1,0 +1,77 @@
+#pragma once
+/// Trajectory accuracy against ground truth: the paper's Table I figures (position error
+/// after aligning the first pose), drift as % of distance travelled, ATE after SE(3)
+/// Umeyama alignment and relative pose error per 10 m.
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+namespace seavio::eval {
+
+/// One pose of the body B in the world W at time t_ns [ns].
+struct TimedPose {
+  int64_t t_ns = 0;
+  Eigen::Isometry3d T_W_B = Eigen::Isometry3d::Identity();
+};
+
+struct EvalParams {
+  /// Largest gap [ns] between an estimate and the ground-truth sample it is matched to
+  /// when it does not fall between two ground-truth samples.
+  int64_t max_dt_ns = 5'000'000;
+  /// Largest gap [ns] between two ground-truth samples that may be interpolated.
+  int64_t max_interp_gap_ns = 200'000'000;
+  /// Segment length of the relative pose error [m].
+  double rpe_segment_m = 10.0;
+  /// Below this fraction of ground-truth frames covered the result is flagged incomplete.
+  double min_coverage = 0.95;
+};
+
+struct TrajectoryMetrics {
+  int gt_poses = 0;           ///< ground-truth samples
+  int est_poses = 0;          ///< estimated samples
+  int associated = 0;         ///< estimates matched to ground truth
+  int gt_in_span = 0;         ///< ground-truth samples in the time span of the estimate
+  /// associated / ground-truth frames from the first to the last ground-truth time; a
+  /// trajectory that stops early or drops frames is < 1.
+  double coverage = 0;
+  bool incomplete = true;     ///< coverage < EvalParams::min_coverage (or nothing associated)
+
+  // Paper Table I: estimate aligned on its first pose (est' = T_gt0 * inv(T_est0) * est).
+  double mean_error_m = 0;
+  double std_error_m = 0;
+  double max_error_m = 0;
+  double final_error_m = 0;
+  double distance_m = 0;            ///< ground-truth path length over the associated poses
+  double mean_error_pct = 0;        ///< mean_error_m / distance_m * 100
+  double final_error_pct = 0;       ///< final_error_m / distance_m * 100
+
+  double ate_rmse_m = 0;            ///< after SE(3) Umeyama alignment (no scale)
+  double rpe_trans_pct = 0;         ///< mean translational error per segment, % of segment length
+  double rpe_rot_deg_per_m = 0;     ///< mean rotational error per segment / segment length
+  int rpe_segments = 0;
+
+  /// Per associated pose, for plotting (paper Figs. 6 and 7).
+  std::vector<int64_t> t_ns;
+  std::vector<double> distance_along_m;            ///< ground-truth distance travelled so far
+  std::vector<double> error_m;                     ///< first-pose-aligned position error
+  std::vector<Eigen::Vector3d> gt_position;        ///< associated ground truth in W
+  std::vector<Eigen::Vector3d> est_first_aligned;  ///< estimate after first-pose alignment
+  std::vector<Eigen::Vector3d> est_umeyama_aligned;///< estimate after Umeyama alignment
+};
+
+/// Associates `est` with `gt` by time (gt interpolated, linear + slerp, when an estimate
+/// falls between two ground-truth samples) and computes every figure above. Both inputs
+/// must be sorted by time. Never throws; with no association `incomplete` is true and
+/// the figures are zero.
+TrajectoryMetrics evaluateTrajectory(const std::vector<TimedPose>& gt, const std::vector<TimedPose>& est,
+                                     const EvalParams& params = {});
+
+/// Pose between `a` (s = 0) and `b` (s = 1): linear in translation, slerp in rotation.
+Eigen::Isometry3d interpolate(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, double s);
+
+/// SE(3) that best maps `src` onto `dst` in least squares (Umeyama 1991, no scale).
+Eigen::Isometry3d alignUmeyama(const std::vector<Eigen::Vector3d>& src, const std::vector<Eigen::Vector3d>& dst);
+
+}  // namespace seavio::eval

@@ -1,0 +1,48 @@
+#include "core/features/feature_count_controller.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace seavio::features {
+
+std::vector<std::string> validate(const FeatureCountControllerParams& p) {
+  std::vector<std::string> errors;
+  if (p.target_count < 1) errors.push_back("controller.target_count must be >= 1");
+  if (!(p.gain > 0.0 && p.gain <= 2.0)) errors.push_back("controller.gain must be in (0, 2]");
+  if (!(p.min_threshold > 0.0) || !std::isfinite(p.min_threshold)) {
+    errors.push_back("controller.min_threshold must be finite and > 0");
+  }
+  if (!(p.max_threshold >= p.min_threshold) || !std::isfinite(p.max_threshold)) {
+    errors.push_back("controller.max_threshold must be finite and >= min_threshold");
+  }
+  if (!(p.initial_threshold >= p.min_threshold && p.initial_threshold <= p.max_threshold)) {
+    errors.push_back("controller.initial_threshold must lie in [min_threshold, max_threshold]");
+  }
+  if (!(p.max_step_factor > 1.0) || !std::isfinite(p.max_step_factor)) {
+    errors.push_back("controller.max_step_factor must be finite and > 1");
+  }
+  return errors;
+}
+
+FeatureCountController::FeatureCountController(const FeatureCountControllerParams& params)
+    : params_(params), threshold_(params.initial_threshold) {
+  const auto errors = validate(params_);
+  if (!errors.empty()) {
+    std::string msg = "invalid feature-count controller parameters:";
+    for (const auto& e : errors) msg += " " + e + ";";
+    throw std::invalid_argument(msg);
+  }
+}
+
+void FeatureCountController::update(int observed_count) {
+  // An empty frame carries no magnitude information: treat it as half a feature so the log
+  // stays finite; the step clamp then lowers the threshold by the largest allowed factor.
+  const double observed = std::max(0.5, static_cast<double>(observed_count));
+  const double max_step = std::log(params_.max_step_factor);
+  const double step =
+      std::clamp(params_.gain * std::log(observed / params_.target_count), -max_step, max_step);
+  threshold_ = std::clamp(threshold_ * std::exp(step), params_.min_threshold, params_.max_threshold);
+}
+
+}  // namespace seavio::features

@@ -1,0 +1,73 @@
+#pragma once
+/// SURF detector and descriptor (Bay, Ess, Tuytelaars, Van Gool, "Speeded-Up Robust
+/// Features", CVIU 2008), written from the paper and OpenCV 2.x's nonfree implementation
+/// because Debian's OpenCV ships without the nonfree module. The paper uses SURF for its
+/// features (section III-B).
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace seavio::features {
+
+/// SURF parameters; the defaults are OpenCV's.
+struct SurfParams {
+  double hessian_threshold = 400;  ///< default threshold on det(H) [grey level^2]; the call
+                                   ///< argument of Surf::detectAndCompute takes precedence
+  int octaves = 4;                 ///< number of octaves (filter sizes double per octave)
+  int octave_layers = 2;           ///< maxima-bearing layers per octave (filters = layers + 2)
+  bool extended = false;           ///< 128-element descriptor instead of 64
+  bool upright = false;            ///< U-SURF: no orientation, descriptor in image axes
+  int max_features = 0;            ///< 0 = no cap; else keep the strongest by det(H)
+};
+
+/// Every problem with `p`, one message per bad key ("surf.octaves must be ..."); empty if
+/// valid.
+std::vector<std::string> validate(const SurfParams& p);
+
+/// The SURF detector/descriptor. Immutable after construction, so one object may serve the
+/// left and right images from two threads at once.
+///
+/// Keypoint conventions (as OpenCV's SURF): `pt` in pixels with pixel centres at integers;
+/// `size` is the interpolated box-filter side [px] (9 at the finest scale; the Gaussian scale
+/// is s = 1.2 size / 9); `angle` the dominant gradient direction in degrees [0, 360),
+/// clockwise in the image (x right, y down), 0 when upright; `response` det(H); `octave` the
+/// octave index; `class_id` the sign of the Laplacian (trace of H: +1 dark blob on bright
+/// ground, -1 bright blob), so matchers can skip pairs of opposite sign.
+class Surf {
+ public:
+  /// Throws std::invalid_argument listing every problem found by validate().
+  explicit Surf(SurfParams params);
+
+  const SurfParams& params() const { return params_; }
+  /// 64, or 128 when extended.
+  int descriptorSize() const { return params_.extended ? 128 : 64; }
+  /// Box-filter side [px] of `layer` in `octave` (Bay's sequence: 9, 15, 21, 27; 15, 27, 39,
+  /// 51; 27, 51, 75, 99; ...).
+  static int filterSize(int octave, int layer);
+
+  /// Detects keypoints in `gray8` (CV_8UC1; throws std::invalid_argument otherwise) with
+  /// det(H) > `hessian_threshold` and describes them. `descriptors` becomes CV_32F, one unit-
+  /// length row per keypoint, in the same order; keypoints come sorted by response, strongest
+  /// first. An image too small for the first octave yields no keypoints.
+  void detectAndCompute(const cv::Mat& gray8, double hessian_threshold,
+                        std::vector<cv::KeyPoint>& keypoints, cv::Mat& descriptors) const;
+
+  /// Detection only, with orientation (keypoints as above, no descriptors).
+  void detect(const cv::Mat& gray8, double hessian_threshold,
+              std::vector<cv::KeyPoint>& keypoints) const;
+
+ private:
+  void run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
+           cv::Mat* descriptors) const;
+
+  SurfParams params_;
+  /// Orientation samples: integer offsets (in units of s) inside radius 6 and their Gaussian
+  /// weights (sigma 2.5 s, as OpenCV).
+  std::vector<cv::Point> ori_offsets_;
+  std::vector<float> ori_weights_;
+  /// Gaussian weights (sigma 3.3 sample spacings) of the 20 x 20 descriptor gradients.
+  std::vector<float> desc_weights_;
+};
+
+}  // namespace seavio::features

@@ -1,0 +1,377 @@
+#include "core/geometry/quadrifocal_ransac.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+#include <Eigen/SVD>
+
+#include "core/common/se3.hpp"
+
+namespace seavio::geometry {
+namespace {
+
+constexpr double kMinDepthM = 1e-3;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+using Mat23 = Eigen::Matrix<double, 2, 3>;
+using Mat86 = Eigen::Matrix<double, 8, 6>;
+using Mat83 = Eigen::Matrix<double, 8, 3>;
+using Vec8 = Eigen::Matrix<double, 8, 1>;
+using Mat63 = Eigen::Matrix<double, 6, 3>;
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+
+bool finite(const Eigen::Isometry3d& T) { return T.matrix().allFinite(); }
+
+/// Pixel of a point given in a left camera frame, in the left (shift 0) or right (shift b) image.
+Eigen::Vector2d project(const camera::RectifiedRig& rig, const Eigen::Vector3d& p, double shift) {
+  return {rig.f_px * (p.x() - shift) / p.z() + rig.cx, rig.f_px * p.y() / p.z() + rig.cy};
+}
+
+Mat23 projectJacobian(const camera::RectifiedRig& rig, const Eigen::Vector3d& p, double shift) {
+  const double iz = 1.0 / p.z();
+  Mat23 J;
+  J << rig.f_px * iz, 0, -rig.f_px * (p.x() - shift) * iz * iz, 0, rig.f_px * iz,
+      -rig.f_px * p.y() * iz * iz;
+  return J;
+}
+
+}  // namespace
+
+const char* toString(RansacStatus s) {
+  switch (s) {
+    case RansacStatus::kOk: return "ok";
+    case RansacStatus::kTooFewMatches: return "too_few_matches";
+    case RansacStatus::kDegenerate: return "degenerate";
+    case RansacStatus::kNoConsensus: return "no_consensus";
+  }
+  return "unknown";
+}
+
+QuadrifocalRansac::QuadrifocalRansac(const camera::RectifiedRig& rig,
+                                     const QuadRansacParams& params)
+    : rig_(rig), params_(params) {
+  params_.max_iterations = std::max(params_.max_iterations, 1);
+  params_.min_iterations = std::clamp(params_.min_iterations, 0, params_.max_iterations);
+  params_.refine_iterations = std::max(params_.refine_iterations, 0);
+}
+
+void QuadrifocalRansac::reserve(std::size_t max_matches) {
+  p_prev_.reserve(max_matches);
+  p_curr_.reserve(max_matches);
+  valid_.reserve(max_matches);
+  usable_.reserve(max_matches);
+  points_.reserve(max_matches);
+  points_trial_.reserve(max_matches);
+}
+
+bool QuadrifocalRansac::triangulate(const Eigen::Vector2f& left, const Eigen::Vector2f& right,
+                                    Eigen::Vector3d& p) const {
+  if (!left.allFinite() || !right.allFinite()) return false;
+  const double d = double(left.x()) - double(right.x());
+  if (!(d >= params_.min_disparity_px) || !(rig_.f_px > 0) || !(rig_.baseline_m > 0)) return false;
+  const double z = rig_.f_px * rig_.baseline_m / d;
+  // Rectified rows agree up to noise: their mean is the better estimate of v.
+  const double v = 0.5 * (double(left.y()) + double(right.y()));
+  p = {(left.x() - rig_.cx) * z / rig_.f_px, (v - rig_.cy) * z / rig_.f_px, z};
+  return p.allFinite();
+}
+
+double QuadrifocalRansac::transferError(std::size_t i, const Eigen::Isometry3d& T_prev_curr,
+                                        const Eigen::Isometry3d& T_curr_prev) const {
+  const QuadMatch& m = matches_[i];
+  const double b = rig_.baseline_m;
+  const Eigen::Vector3d in_curr = T_curr_prev * p_prev_[i];
+  const Eigen::Vector3d in_prev = T_prev_curr * p_curr_[i];
+  if (!(in_curr.z() > kMinDepthM) || !(in_prev.z() > kMinDepthM)) return kInf;
+  const double e0 = (project(rig_, in_curr, 0) - m.left_curr.cast<double>()).norm();
+  const double e1 = (project(rig_, in_curr, b) - m.right_curr.cast<double>()).norm();
+  const double e2 = (project(rig_, in_prev, 0) - m.left_prev.cast<double>()).norm();
+  const double e3 = (project(rig_, in_prev, b) - m.right_prev.cast<double>()).norm();
+  const double e = std::max(std::max(e0, e1), std::max(e2, e3));
+  return std::isfinite(e) ? e : kInf;
+}
+
+QuadrifocalRansac::Scored QuadrifocalRansac::score(const Eigen::Isometry3d& T_prev_curr) const {
+  // MSAC: truncated quadratic, so among equal counts the tighter hypothesis wins.
+  const Eigen::Isometry3d T_curr_prev = T_prev_curr.inverse();
+  const double th = params_.inlier_threshold_px, th2 = th * th;
+  Scored s;
+  for (uint32_t i : usable_) {
+    const double e = transferError(i, T_prev_curr, T_curr_prev);
+    if (e <= th) {
+      ++s.inliers;
+      s.cost += e * e;
+    } else {
+      s.cost += th2;
+    }
+  }
+  return s;
+}
+
+bool QuadrifocalRansac::withinPrior(const Eigen::Isometry3d& T,
+                                    const Eigen::Isometry3d& prior) const {
+  const Eigen::Isometry3d d = prior.inverse() * T;
+  if (params_.prior_max_rotation_rad > 0 && se3::angle(d) > params_.prior_max_rotation_rad)
+    return false;
+  if (params_.prior_max_translation_m > 0 &&
+      (T.translation() - prior.translation()).norm() > params_.prior_max_translation_m)
+    return false;
+  return true;
+}
+
+void QuadrifocalRansac::selectInliers(const Eigen::Isometry3d& T_prev_curr,
+                                      std::vector<uint32_t>& out) const {
+  out.clear();
+  const Eigen::Isometry3d T_curr_prev = T_prev_curr.inverse();
+  for (uint32_t i : usable_)
+    if (transferError(i, T_prev_curr, T_curr_prev) <= params_.inlier_threshold_px)
+      out.push_back(i);
+}
+
+RansacResult QuadrifocalRansac::estimate(std::span<const QuadMatch> matches,
+                                         const Eigen::Isometry3d& T_prev_curr_prior,
+                                         std::mt19937& rng) {
+  RansacResult result;
+  const bool prior_ok = finite(T_prev_curr_prior);
+  result.T_prev_curr = prior_ok ? T_prev_curr_prior : Eigen::Isometry3d::Identity();
+  matches_ = matches;
+  const std::size_t n = matches.size();
+  p_prev_.resize(n);
+  p_curr_.resize(n);
+  valid_.assign(n, 0);
+  usable_.clear();
+  for (std::size_t i = 0; i < n; ++i) {
+    valid_[i] = triangulate(matches[i].left_prev, matches[i].right_prev, p_prev_[i]) &&
+                triangulate(matches[i].left_curr, matches[i].right_curr, p_curr_[i]);
+    if (valid_[i]) usable_.push_back(uint32_t(i));
+  }
+  const int need = std::max(3, params_.min_inliers);
+  if (int(usable_.size()) < need) {
+    result.status = RansacStatus::kTooFewMatches;
+    return result;
+  }
+
+  Eigen::Isometry3d best_T = result.T_prev_curr;
+  Scored best{kInf, 0};
+  if (prior_ok) best = score(T_prev_curr_prior);
+
+  std::uniform_int_distribution<std::size_t> pick(0, usable_.size() - 1);
+  const double log_fail = std::log(1.0 - std::clamp(params_.confidence, 0.5, 0.999999));
+  int budget = std::max(params_.min_iterations, 1);
+  auto updateBudget = [&](int inliers) {
+    const double w = double(inliers) / double(usable_.size());
+    const double w3 = w * w * w;
+    int adaptive = params_.max_iterations;
+    if (w3 >= 1.0) {
+      adaptive = 0;
+    } else if (w3 > 0) {
+      const double k = log_fail / std::log(1.0 - w3);
+      if (k < double(params_.max_iterations)) adaptive = int(std::ceil(k));
+    }
+    budget = std::clamp(adaptive, params_.min_iterations, params_.max_iterations);
+  };
+  updateBudget(best.inliers);
+
+  int degenerate = 0, it = 0;
+  Eigen::Matrix3d src, dst;
+  for (; it < budget; ++it) {
+    const std::size_t a = pick(rng);
+    std::size_t b = pick(rng), c = pick(rng);
+    if (b == a || c == a || c == b) {
+      ++degenerate;
+      continue;
+    }
+    const uint32_t ia = usable_[a], ib = usable_[b], ic = usable_[c];
+    src << p_curr_[ia], p_curr_[ib], p_curr_[ic];
+    dst << p_prev_[ia], p_prev_[ib], p_prev_[ic];
+    // A near-collinear triple fixes no rotation about its line (triangle area in m^2).
+    const double area_prev = (dst.col(1) - dst.col(0)).cross(dst.col(2) - dst.col(0)).norm();
+    const double area_curr = (src.col(1) - src.col(0)).cross(src.col(2) - src.col(0)).norm();
+    if (area_prev < 1e-4 || area_curr < 1e-4) {
+      ++degenerate;
+      continue;
+    }
+    Eigen::Isometry3d T;
+    T.matrix() = Eigen::umeyama(src, dst, false);
+    if (!finite(T)) {
+      ++degenerate;
+      continue;
+    }
+    if (prior_ok && !withinPrior(T, T_prev_curr_prior)) continue;
+    const Scored s = score(T);
+    if (s.inliers > 0 && s.cost < best.cost) {
+      best = s;
+      best_T = T;
+      updateBudget(s.inliers);
+    }
+  }
+  result.iterations = it;
+
+  if (best.inliers < need) {
+    result.status = degenerate >= it && it > 0 ? RansacStatus::kDegenerate
+                                               : RansacStatus::kNoConsensus;
+    return result;
+  }
+
+  // Refine, re-select with the better motion, refine again (section III-C).
+  Eigen::Isometry3d T = best_T;
+  std::vector<uint32_t> inliers;
+  inliers.reserve(usable_.size());
+  selectInliers(T, inliers);
+  double rms = 0;
+  Eigen::Matrix<double, 6, 6> cov = Eigen::Matrix<double, 6, 6>::Identity();
+  for (int round = 0; round < 2; ++round) {
+    Eigen::Isometry3d T_ref = T;
+    if (int(inliers.size()) < need || !refine(matches, inliers, T_ref, rms, cov)) break;
+    T = T_ref;
+    selectInliers(T, inliers);
+  }
+  if (int(inliers.size()) < need || !finite(T) || !cov.allFinite() || !std::isfinite(rms)) {
+    result.status = RansacStatus::kNoConsensus;
+    return result;
+  }
+  result.status = RansacStatus::kOk;
+  result.T_prev_curr = T;
+  result.inliers = std::move(inliers);
+  result.rms_px = rms;
+  result.covariance = cov;
+  return result;
+}
+
+// Why full four-view bundle adjustment rather than a structure-less transfer error: the
+// transfer error treats the triangulated point as exact although its depth is the noisiest
+// quantity of all (a 0.3 px disparity error is ~1% of depth at 4 m), so it weighs the four
+// images unequally and biases the motion. Refining each point (3 parameters, triangulated in
+// the previous pair) with the motion is the maximum-likelihood estimate under pixel noise, and
+// the Schur complement keeps the cost linear in the number of points: one 6x6 solve per step.
+bool QuadrifocalRansac::refine(std::span<const QuadMatch> matches,
+                               const std::vector<uint32_t>& inliers,
+                               Eigen::Isometry3d& T_prev_curr, double& rms_px,
+                               Eigen::Matrix<double, 6, 6>& covariance) {
+  const std::size_t n = inliers.size();
+  const double b = rig_.baseline_m;
+  points_.resize(n);
+  points_trial_.resize(n);
+  for (std::size_t k = 0; k < n; ++k) points_[k] = p_prev_[inliers[k]];
+  Eigen::Isometry3d A = T_prev_curr.inverse();  // T_curr_prev, perturbed on the left
+
+  auto residual = [&](const Eigen::Isometry3d& A_, const Eigen::Vector3d& X, const QuadMatch& m,
+                      Vec8& r) -> bool {
+    const Eigen::Vector3d Y = A_ * X;
+    if (!(X.z() > kMinDepthM) || !(Y.z() > kMinDepthM)) return false;
+    r.segment<2>(0) = project(rig_, X, 0) - m.left_prev.cast<double>();
+    r.segment<2>(2) = project(rig_, X, b) - m.right_prev.cast<double>();
+    r.segment<2>(4) = project(rig_, Y, 0) - m.left_curr.cast<double>();
+    r.segment<2>(6) = project(rig_, Y, b) - m.right_curr.cast<double>();
+    return r.allFinite();
+  };
+  auto totalCost = [&](const Eigen::Isometry3d& A_, const std::vector<Eigen::Vector3d>& pts) {
+    double c = 0;
+    Vec8 r;
+    for (std::size_t k = 0; k < n; ++k) {
+      if (!residual(A_, pts[k], matches[inliers[k]], r)) return kInf;
+      c += r.squaredNorm();
+    }
+    return c;
+  };
+
+  double cost = totalCost(A, points_);
+  if (!std::isfinite(cost)) return false;
+  double lambda = 1e-4;
+  Mat6 S;
+  Eigen::Matrix<double, 6, 1> g;
+  Vec8 r;
+  Mat86 Jp;
+  Mat83 Jl;
+  auto buildSystem = [&](double damping) {
+    S.setZero();
+    g.setZero();
+    for (std::size_t k = 0; k < n; ++k) {
+      const Eigen::Vector3d& X = points_[k];
+      const Eigen::Vector3d Y = A * X;
+      residual(A, X, matches[inliers[k]], r);
+      Jl.topRows<2>() = projectJacobian(rig_, X, 0);
+      Jl.middleRows<2>(2) = projectJacobian(rig_, X, b);
+      const Mat23 Jy0 = projectJacobian(rig_, Y, 0), Jy1 = projectJacobian(rig_, Y, b);
+      Jl.middleRows<2>(4) = Jy0 * A.linear();
+      Jl.bottomRows<2>() = Jy1 * A.linear();
+      Eigen::Matrix<double, 3, 6> dY;
+      dY.leftCols<3>() = -se3::skew(Y);
+      dY.rightCols<3>().setIdentity();
+      Jp.topRows<4>().setZero();
+      Jp.middleRows<2>(4) = Jy0 * dY;
+      Jp.bottomRows<2>() = Jy1 * dY;
+      Mat6 Hpp = Jp.transpose() * Jp;
+      const Mat63 Hpl = Jp.transpose() * Jl;
+      Eigen::Matrix3d Hll = Jl.transpose() * Jl;
+      Hpp.diagonal() *= 1.0 + damping;
+      Hll.diagonal() *= 1.0 + damping;
+      const Eigen::Matrix3d Hll_inv = Hll.inverse();
+      S += Hpp - Hpl * Hll_inv * Hpl.transpose();
+      g += Jp.transpose() * r - Hpl * Hll_inv * (Jl.transpose() * r);
+    }
+  };
+
+  for (int it = 0; it < params_.refine_iterations; ++it) {
+    buildSystem(lambda);
+    const Eigen::Matrix<double, 6, 1> dp = -S.ldlt().solve(g);
+    if (!dp.allFinite()) return false;
+    // Back-substitute the point steps (each point's 3x3 block).
+    const Eigen::Isometry3d A_trial = se3::expSE3(dp) * A;
+    for (std::size_t k = 0; k < n; ++k) {
+      const Eigen::Vector3d& X = points_[k];
+      const Eigen::Vector3d Y = A * X;
+      residual(A, X, matches[inliers[k]], r);
+      Jl.topRows<2>() = projectJacobian(rig_, X, 0);
+      Jl.middleRows<2>(2) = projectJacobian(rig_, X, b);
+      const Mat23 Jy0 = projectJacobian(rig_, Y, 0), Jy1 = projectJacobian(rig_, Y, b);
+      Jl.middleRows<2>(4) = Jy0 * A.linear();
+      Jl.bottomRows<2>() = Jy1 * A.linear();
+      Eigen::Matrix<double, 3, 6> dY;
+      dY.leftCols<3>() = -se3::skew(Y);
+      dY.rightCols<3>().setIdentity();
+      Eigen::Matrix<double, 2, 6> J0 = Jy0 * dY, J1 = Jy1 * dY;
+      Eigen::Matrix3d Hll = Jl.transpose() * Jl;
+      Hll.diagonal() *= 1.0 + lambda;
+      const Eigen::Vector3d rhs = Jl.transpose() * r + (J0.transpose() * Jl.middleRows<2>(4) +
+                                                        J1.transpose() * Jl.bottomRows<2>())
+                                                           .transpose() * dp;
+      points_trial_[k] = X - Hll.ldlt().solve(rhs);
+    }
+    const double trial = totalCost(A_trial, points_trial_);
+    if (trial < cost) {
+      const double gain = cost - trial;
+      A = A_trial;
+      points_.swap(points_trial_);
+      cost = trial;
+      lambda = std::max(lambda * 0.2, 1e-9);
+      if (gain < 1e-10 * (1.0 + cost) && dp.norm() < 1e-10) break;
+    } else {
+      lambda *= 10.0;
+      if (lambda > 1e8) break;
+    }
+  }
+
+  buildSystem(0.0);
+  const double dof = std::max(1.0, double(5 * n) - 6.0);
+  const double sigma2 =
+      std::max(cost / dof, params_.min_pixel_sigma_px * params_.min_pixel_sigma_px);
+  const Mat6 cov_A = sigma2 * S.ldlt().solve(Mat6::Identity());
+  // A = exp(d) A_hat  <=>  T = T_hat exp(-d) = exp(-Ad_T d) T_hat: move to T's left tangent.
+  const Eigen::Isometry3d T = A.inverse();
+  Mat6 Ad = Mat6::Zero();
+  Ad.topLeftCorner<3, 3>() = T.linear();
+  Ad.bottomRightCorner<3, 3>() = T.linear();
+  Ad.bottomLeftCorner<3, 3>() = se3::skew(T.translation()) * T.linear();
+  const Mat6 cov_T = Ad * cov_A * Ad.transpose();
+  if (!finite(T) || !cov_T.allFinite()) return false;
+  T_prev_curr = T;
+  covariance = 0.5 * (cov_T + cov_T.transpose());
+  rms_px = std::sqrt(cost / double(4 * n));
+  return true;
+}
+
+}  // namespace seavio::geometry

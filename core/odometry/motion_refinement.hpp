@@ -1,0 +1,46 @@
+#pragma once
+/// Final IMU-aided refinement of the inter-frame motion. A downward-looking rig over a nearly
+/// flat floor cannot tell a small pitch from a small forward translation (both shift the image
+/// almost uniformly), so the four-view reprojection alone leaves that direction soft. The
+/// gyro, integrated over one frame interval, knows the rotation to a few thousandths of a
+/// degree; as a prior it pins the rotation and lets the matches determine the translation.
+#include <span>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "core/camera/rectified_rig.hpp"
+#include "core/geometry/quadrifocal_ransac.hpp"
+
+namespace seavio::odometry {
+
+struct RotationPrior {
+  bool valid = false;
+  Eigen::Matrix3d R_prev_curr = Eigen::Matrix3d::Identity();  ///< rectified left cameras
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();   ///< [rad^2], in the previous camera
+};
+
+struct MotionRefinementParams {
+  int iterations = 8;
+  double pixel_sigma_px = 0.25;  ///< feature localisation noise [px]
+  double huber_px = 1.0;         ///< robust kernel width [px]
+  double min_rotation_sigma_rad = 2e-5;  ///< floor on the prior's sigma [rad]
+};
+
+struct MotionRefinementResult {
+  bool ok = false;
+  Eigen::Isometry3d T_prev_curr = Eigen::Isometry3d::Identity();
+  /// Covariance of the left perturbation (rotation [rad], translation [m]) in the previous camera.
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Identity();
+  double rms_px = 0;
+};
+
+/// Gauss-Newton on T_prev_curr over the `inliers` of `matches`: symmetric transfer error
+/// (points triangulated in one pair, reprojected into both images of the other) plus the
+/// rotation prior. Points are triangulated once; with both directions the first-order effect
+/// of their depth noise cancels.
+MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<const geometry::QuadMatch> matches,
+                                    std::span<const uint32_t> inliers, const Eigen::Isometry3d& T_prev_curr_init,
+                                    const RotationPrior& prior, const MotionRefinementParams& params);
+
+}  // namespace seavio::odometry

@@ -1,0 +1,272 @@
+#include "core/odometry/odometry.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/common/se3.hpp"
+#include "core/common/stage_timer.hpp"
+#include "core/odometry/motion_refinement.hpp"
+
+namespace seavio::odometry {
+namespace {
+
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+
+bool finitePose(const Eigen::Isometry3d& T) { return T.matrix().allFinite(); }
+
+/// Relative-motion covariance (rotation, translation) from the propagated error state.
+Matrix6d relativeCovariance(const imu::Matrix9d& P) {
+  Matrix6d C = Matrix6d::Zero();
+  C.topLeftCorner<3, 3>() = P.topLeftCorner<3, 3>();
+  C.bottomRightCorner<3, 3>() = P.block<3, 3>(6, 6);
+  return C;
+}
+
+/// Adds a relative-motion covariance expressed in frame `R_W_a` to an absolute one in W.
+void accumulate(Matrix6d& absolute, const Matrix6d& relative, const Eigen::Matrix3d& R_W_a) {
+  Matrix6d J = Matrix6d::Zero();
+  J.topLeftCorner<3, 3>() = R_W_a;
+  J.bottomRightCorner<3, 3>() = R_W_a;
+  absolute += J * relative * J.transpose();
+}
+
+}  // namespace
+
+Odometry::Odometry(camera::StereoRectifier rectifier, const imu::ImuNoise& imu_noise, const OdometryParams& params,
+                   NowNsFn now)
+    : frontend_(std::move(rectifier), params.features, params.stereo, params.illumination),
+      imu_noise_(imu_noise),
+      params_(params),
+      now_(std::move(now)),
+      controller_(params.features.controller),
+      ransac_(frontend_.rig(), params.ransac),
+      map_(params.map),
+      rng_(params.seed) {}
+
+OdometryResult Odometry::process(const StereoFrame& frame, std::span<const ImuSample> imu) {
+  FrameFeatures f = frontend_.process(frame, controller_.threshold(), now_);
+  return track(std::move(f), imu);
+}
+
+void Odometry::initialise(const FrameFeatures& frame, std::span<const ImuSample> imu) {
+  state_ = NavState{};
+  state_.t_ns = frame.t_ns;
+  // Attitude from the accelerometer over the last second before the first frame (III-A).
+  std::vector<ImuSample> recent;
+  for (const ImuSample& s : imu)
+    if (s.t_ns <= frame.t_ns && s.t_ns > frame.t_ns - 1'000'000'000) recent.push_back(s);
+  if (const auto R = imu::attitudeFromAccelerometer(recent, 0.2)) state_.T_W_B.linear() = *R;
+  state_covariance_ = imu::Matrix9d::Zero();
+  state_covariance_.block<3, 3>(3, 3) =
+      Eigen::Matrix3d::Identity() * params_.initial_velocity_sigma_m_s * params_.initial_velocity_sigma_m_s;
+  pose_covariance_ = Matrix6d::Identity() * 1e-12;
+  initialised_ = true;
+}
+
+OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample> imu) {
+  StageTimer timer(now_);
+  OdometryResult r;
+  r.t_ns = frame.t_ns;
+  r.seq = frame.seq;
+  r.times = frame.times;
+  r.quality.features_left = static_cast<int>(frame.left.keypoints.size());
+  r.quality.features_right = static_cast<int>(frame.right.keypoints.size());
+  r.quality.stereo_matches = static_cast<int>(frame.stereo.points.size());
+  r.quality.detector_threshold = frame.detector_threshold;
+  // Paper III-B: a proportional controller holds the feature count.
+  controller_.update(static_cast<int>(frame.left.keypoints.size()));
+
+  // Keep IMU samples across calls so integration can interpolate at the frame boundaries.
+  for (const ImuSample& s : imu)
+    if (imu_buffer_.empty() || s.t_ns > imu_buffer_.back().t_ns) imu_buffer_.push_back(s);
+
+  const camera::RectifiedRig& rig = frontend_.rig();
+  const Eigen::Isometry3d T_B_R0 = rig.T_B_R0;
+
+  if (!initialised_) {
+    initialise(frame, imu_buffer_);
+    r.T_W_B = state_.T_W_B;
+    r.source = PoseSource::kInit;
+    r.covariance = pose_covariance_;
+    const Eigen::Isometry3d T_W_R0 = state_.T_W_B * T_B_R0;
+    if (params_.mode == Mode::kGlobal) {
+      map_.insert(map::MapFrame{frame.seq, frame.t_ns, T_W_R0, [&] {
+                                  std::vector<Eigen::Vector3f> p;
+                                  for (const auto& sp : frame.stereo.points) p.push_back(sp.p_R0);
+                                  return p;
+                                }()});
+    }
+    previous_ = PreviousFrame{std::move(frame), T_W_R0, r.t_ns};
+    r.times.total_ms = r.times.rectify_ms + r.times.features_ms + r.times.stereo_ms + timer.total_ms();
+    return r;
+  }
+
+  // --- III-A: IMU dead reckoning from the last estimate to this frame.
+  const double dt_s = 1e-9 * static_cast<double>(frame.t_ns - state_.t_ns);
+  imu::Matrix9d start_cov = imu::Matrix9d::Zero();
+  start_cov.block<3, 3>(3, 3) = state_covariance_.block<3, 3>(3, 3);
+  start_cov.topLeftCorner<3, 3>() = state_covariance_.topLeftCorner<3, 3>();
+  const bool have_imu = imu_buffer_.size() >= 2 && imu_buffer_.back().t_ns >= state_.t_ns;
+  imu::ImuPropagation pred;
+  Eigen::Isometry3d T_prev_curr_pred;  // rectified left camera, previous <- current
+  Matrix6d pred_cov;
+  if (have_imu) {
+    pred = imu::propagate(state_, start_cov, imu_buffer_, frame.t_ns, imu_noise_);
+    T_prev_curr_pred = (state_.T_W_B * T_B_R0).inverse() * (pred.state.T_W_B * T_B_R0);
+    pred_cov = relativeCovariance(pred.covariance);
+  } else {
+    // No IMU (KITTI, IMU outage): constant-velocity prediction, loosely trusted.
+    pred.state = state_;
+    pred.state.t_ns = frame.t_ns;
+    const double scale = last_dt_s_ > 0 ? dt_s / last_dt_s_ : 1.0;
+    T_prev_curr_pred = se3::expSE3(se3::logSE3(last_motion_) * scale);
+    pred.state.T_W_B = state_.T_W_B * T_B_R0 * T_prev_curr_pred * T_B_R0.inverse();
+    pred_cov = Matrix6d::Zero();
+    pred_cov.diagonal() << 4e-4, 4e-4, 4e-4, 0.01, 0.01, 0.01;
+  }
+  // Drop samples no longer needed (keep one before the frame for interpolation).
+  while (imu_buffer_.size() > 2 && imu_buffer_[1].t_ns <= frame.t_ns) imu_buffer_.erase(imu_buffer_.begin());
+
+  // --- III-C: inter-frame matching pruned by the prediction.
+  const PreviousFrame& prev = *previous_;
+  const auto temporal = matching::matchTemporal(prev.features.stereo, frame.stereo, rig, T_prev_curr_pred, pred_cov,
+                                                params_.temporal);
+  r.quality.temporal_matches = static_cast<int>(temporal.size());
+  r.times.temporal_ms = timer.lap_ms();
+
+  // --- III-C: quadrifocal tensor of the two pairs, RANSAC + refinement.
+  std::vector<geometry::QuadMatch> quads;
+  quads.reserve(temporal.size());
+  for (const auto& m : temporal) {
+    const auto& a = prev.features.stereo.points[static_cast<std::size_t>(m.prev)];
+    const auto& b = frame.stereo.points[static_cast<std::size_t>(m.curr)];
+    quads.push_back(geometry::QuadMatch{a.uv_left, a.uv_right, b.uv_left, b.uv_right});
+  }
+  const geometry::RansacResult ransac = ransac_.estimate(quads, T_prev_curr_pred, rng_);
+  r.quality.ransac_inliers = static_cast<int>(ransac.inliers.size());
+  r.times.tensor_ms = timer.lap_ms();
+
+  bool vision_ok = ransac.status == geometry::RansacStatus::kOk &&
+                   static_cast<int>(ransac.inliers.size()) >= params_.min_inliers && finitePose(ransac.T_prev_curr);
+  Eigen::Isometry3d T_prev_curr = vision_ok ? ransac.T_prev_curr : T_prev_curr_pred;
+  Matrix6d rel_cov = vision_ok ? Matrix6d(ransac.covariance) : pred_cov;
+  if (vision_ok && params_.use_rotation_prior) {
+    // IMU-aided refinement: the gyro's rotation as a prior removes the pitch/surge ambiguity
+    // of a flat floor (see motion_refinement.hpp).
+    RotationPrior prior;
+    prior.valid = have_imu;
+    prior.R_prev_curr = T_prev_curr_pred.rotation();
+    // Relative rotation noise only: the absolute attitude uncertainty carried in the start
+    // covariance passes through the short propagation unchanged (F ~ I) and is removed.
+    prior.covariance = pred_cov.topLeftCorner<3, 3>() - start_cov.topLeftCorner<3, 3>();
+    const MotionRefinementResult refined =
+        refineMotion(rig, quads, ransac.inliers, T_prev_curr, prior, params_.refinement);
+    if (refined.ok) {
+      T_prev_curr = refined.T_prev_curr;
+      rel_cov = refined.covariance;
+    }
+  }
+  Eigen::Isometry3d T_W_R0 = prev.T_W_R0 * T_prev_curr;
+
+  // --- III-D/E: ICP against the previous frame (local) or the map near the prediction (global).
+  std::vector<Eigen::Vector3f> data;
+  data.reserve(frame.stereo.points.size());
+  for (const auto& sp : frame.stereo.points) data.push_back(sp.p_R0);
+  if (vision_ok) {
+    std::vector<std::pair<int, int>> seeds;
+    seeds.reserve(ransac.inliers.size());
+    if (params_.mode == Mode::kLocal) {
+      std::vector<Eigen::Vector3f> model;
+      model.reserve(prev.features.stereo.points.size());
+      for (const auto& sp : prev.features.stereo.points) model.push_back(sp.p_R0);
+      for (uint32_t i : ransac.inliers) seeds.emplace_back(temporal[i].curr, temporal[i].prev);
+      const icp::PointCloudIndex index(model);
+      const icp::IcpResult icp = icp::alignIcp(data, model, index, seeds, T_prev_curr, params_.icp);
+      r.quality.icp_iterations = icp.iterations;
+      r.quality.icp_inliers = icp.inliers;
+      r.quality.icp_rms_m = icp.rms_m;
+      r.quality.model_points = static_cast<int>(model.size());
+      if (icp.status == icp::IcpStatus::kOk && params_.final_stage == FinalStage::kIcp && finitePose(icp.T_model_data)) {
+        T_prev_curr = icp.T_model_data;
+        T_W_R0 = prev.T_W_R0 * T_prev_curr;
+      }
+    } else {
+      const auto selected = map_.selectNear(T_W_R0.translation());
+      const map::ModelCloud model = map_.buildModel(selected);
+      r.quality.model_points = static_cast<int>(model.points_W.size());
+      if (!model.points_W.empty()) {
+        const icp::PointCloudIndex index(model.points_W);
+        // Descriptor seeds are only known against the previous frame; the rest is geometry.
+        const icp::IcpResult icp = icp::alignIcp(data, model.points_W, index, {}, T_W_R0, params_.icp);
+        r.quality.icp_iterations = icp.iterations;
+        r.quality.icp_inliers = icp.inliers;
+        r.quality.icp_rms_m = icp.rms_m;
+        if (icp.status == icp::IcpStatus::kOk && finitePose(icp.T_model_data)) {
+          T_W_R0 = icp.T_model_data;
+          T_prev_curr = prev.T_W_R0.inverse() * T_W_R0;
+        }
+      }
+    }
+  }
+  r.times.icp_ms = timer.lap_ms();
+
+  Eigen::Isometry3d T_W_B = T_W_R0 * T_B_R0.inverse();
+  if (vision_ok && dt_s > 0 &&
+      (T_W_B.translation() - state_.T_W_B.translation()).norm() / dt_s > params_.max_speed_m_s) {
+    vision_ok = false;  // a jump: refuse it rather than publish it
+  }
+
+  if (vision_ok) {
+    // Velocity: the visual displacement corrects the IMU's start velocity (III-A feeds III-C
+    // and the visual pose feeds the next prediction).
+    Eigen::Vector3d v = pred.state.v_W;
+    if (dt_s > 1e-6) v += (T_W_B.translation() - pred.state.T_W_B.translation()) / dt_s;
+    if (have_imu && dt_s > 1e-6) {
+      // Gyro bias from the rotation residual between IMU and vision, lightly filtered.
+      const Eigen::Matrix3d dR_imu = state_.T_W_B.rotation().transpose() * pred.state.T_W_B.rotation();
+      const Eigen::Matrix3d dR_vis = state_.T_W_B.rotation().transpose() * T_W_B.rotation();
+      const Eigen::Vector3d residual = se3::logSO3(dR_imu.transpose() * dR_vis) / dt_s;
+      state_.gyro_bias_rad_s -= params_.gyro_bias_gain * residual;
+    }
+    state_.T_W_B = T_W_B;
+    state_.v_W = v;
+    state_covariance_ = imu::Matrix9d::Zero();
+    state_covariance_.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() * std::pow(params_.attitude_sigma_rad, 2);
+    state_covariance_.block<3, 3>(3, 3) = Eigen::Matrix3d::Identity() * std::pow(params_.velocity_sigma_m_s, 2);
+    accumulate(pose_covariance_, rel_cov, prev.T_W_R0.rotation());
+    r.source = PoseSource::kVision;
+  } else {
+    // Vision failed: coast on the IMU, flagged, with the covariance it deserves.
+    const Eigen::Vector3d bg = state_.gyro_bias_rad_s, ba = state_.accel_bias_m_s2;
+    state_ = pred.state;
+    state_.gyro_bias_rad_s = bg;
+    state_.accel_bias_m_s2 = ba;
+    state_covariance_ = pred.covariance;
+    accumulate(pose_covariance_, relativeCovariance(pred.covariance), Eigen::Matrix3d::Identity());
+    T_W_B = state_.T_W_B;
+    T_W_R0 = T_W_B * T_B_R0;
+    r.source = PoseSource::kImuOnly;
+  }
+  state_.t_ns = frame.t_ns;
+  if (!finitePose(state_.T_W_B) || !state_.v_W.allFinite()) {
+    // Never let a NaN leave core: hold the last finite state.
+    state_.T_W_B = prev.T_W_R0 * T_B_R0.inverse();
+    state_.v_W.setZero();
+    T_W_R0 = prev.T_W_R0;
+    r.source = PoseSource::kImuOnly;
+  }
+  last_motion_ = prev.T_W_R0.inverse() * T_W_R0;
+  last_dt_s_ = dt_s;
+
+  if (params_.mode == Mode::kGlobal && r.source == PoseSource::kVision && map_.wantsKeyframe(T_W_R0))
+    map_.insert(map::MapFrame{frame.seq, frame.t_ns, T_W_R0, data});
+
+  r.T_W_B = state_.T_W_B;
+  r.v_W = state_.v_W;
+  r.covariance = pose_covariance_;
+  previous_ = PreviousFrame{std::move(frame), T_W_R0, r.t_ns};
+  r.times.total_ms = r.times.rectify_ms + r.times.features_ms + r.times.stereo_ms + timer.total_ms();
+  return r;
+}
+
+}  // namespace seavio::odometry

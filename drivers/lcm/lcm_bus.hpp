@@ -1,0 +1,72 @@
+#pragma once
+/// A thin owner of one LCM instance: typed publish with failure reporting, typed subscribe
+/// with decode-failure counting, and a receive loop step with a timeout.
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <lcm/lcm-cpp.hpp>
+
+namespace seavio::drivers {
+
+class LcmBus {
+ public:
+  /// @param url LCM provider, e.g. "udpm://239.255.76.67:7667?ttl=0"; empty = LCM default.
+  explicit LcmBus(const std::string& url);
+  LcmBus(const LcmBus&) = delete;
+  LcmBus& operator=(const LcmBus&) = delete;
+
+  /// True if the provider could be opened (socket, multicast join).
+  bool good() const { return lcm_->good(); }
+  const std::string& url() const { return url_; }
+
+  /// Encodes and sends one message. False (and counted) if LCM refuses it.
+  template <class Msg>
+  bool publish(const std::string& channel, const Msg& msg) {
+    const bool ok = good() && lcm_->publish(channel, &msg) == 0;
+    if (!ok) publish_failures_.fetch_add(1, std::memory_order_relaxed);
+    return ok;
+  }
+
+  /// Calls `fn` for every message on `channel` that decodes as Msg; the rest are counted
+  /// in decodeFailures(). Handlers run inside handle() on the caller's thread.
+  template <class Msg>
+  void subscribe(const std::string& channel, std::function<void(const Msg&)> fn) {
+    auto h = std::make_unique<Handler>();
+    h->fn = [this, fn = std::move(fn)](const lcm::ReceiveBuffer* rbuf) {
+      Msg m{};
+      if (m.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) {
+        decode_failures_.fetch_add(1, std::memory_order_relaxed);
+        return;
+      }
+      fn(m);
+    };
+    lcm_->subscribe(channel, &Handler::onMessage, h.get());
+    handlers_.push_back(std::move(h));
+  }
+
+  /// Handles at most one incoming message. Returns 1 if one was handled, 0 on timeout,
+  /// -1 on error. @param timeout_ms [ms]
+  int handle(int timeout_ms);
+
+  uint64_t publishFailures() const { return publish_failures_.load(std::memory_order_relaxed); }
+  uint64_t decodeFailures() const { return decode_failures_.load(std::memory_order_relaxed); }
+
+ private:
+  /// LCM 1.3 subscribes member functions only; one small object per subscription.
+  struct Handler {
+    std::function<void(const lcm::ReceiveBuffer*)> fn;
+    void onMessage(const lcm::ReceiveBuffer* rbuf, const std::string&) { fn(rbuf); }
+  };
+
+  std::string url_;
+  std::vector<std::unique_ptr<Handler>> handlers_;
+  std::unique_ptr<lcm::LCM> lcm_;
+  std::atomic<uint64_t> publish_failures_{0};
+  std::atomic<uint64_t> decode_failures_{0};
+};
+
+}  // namespace seavio::drivers

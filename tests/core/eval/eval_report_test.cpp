@@ -1,0 +1,94 @@
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+#include <unistd.h>
+
+#include "core/eval/trajectory_metrics.hpp"
+#include "tools/eval_report.hpp"
+
+namespace seavio::tools {
+namespace {
+
+std::vector<eval::TimedPose> arc(int n, double scale) {
+  std::vector<eval::TimedPose> out;
+  for (int i = 0; i < n; ++i) {
+    eval::TimedPose p;
+    p.t_ns = int64_t(i) * 50'000'000;
+    const double a = 0.02 * i;
+    p.T_W_B.translation() = scale * Eigen::Vector3d(10 * std::sin(a), 10 - 10 * std::cos(a), 0);
+    out.push_back(p);
+  }
+  return out;
+}
+
+std::string tempPath(const std::string& name) {
+  return (std::filesystem::temp_directory_path() / ("seavio_report_" + std::to_string(::getpid()) + "_" + name))
+      .string();
+}
+
+TEST(EvalReport, TableShowsTableIColumnsAndIncompleteFlag) {
+  const auto gt = arc(200, 1.0);
+  eval::TrajectoryMetrics m = eval::evaluateTrajectory(gt, arc(200, 1.05));
+  std::ostringstream os;
+  printMetrics(os, m);
+  const std::string s = os.str();
+  EXPECT_NE(s.find("Table I"), std::string::npos);
+  EXPECT_NE(s.find("ATE RMSE"), std::string::npos);
+  char mean[32];
+  std::snprintf(mean, sizeof(mean), "%.3f", m.mean_error_m);
+  EXPECT_NE(s.find(mean), std::string::npos);
+  EXPECT_EQ(s.find("INCOMPLETE"), std::string::npos);
+
+  m = eval::evaluateTrajectory(gt, arc(100, 1.05));
+  std::ostringstream os2;
+  printMetrics(os2, m);
+  EXPECT_NE(os2.str().find("INCOMPLETE"), std::string::npos);
+}
+
+TEST(EvalReport, JsonHoldsFiguresAndArrays) {
+  const auto gt = arc(100, 1.0);
+  const eval::TrajectoryMetrics m = eval::evaluateTrajectory(gt, arc(100, 1.1));
+  const std::string path = tempPath("m.json");
+  writeMetricsJson(path, m);
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string s = ss.str();
+  std::filesystem::remove(path);
+  EXPECT_EQ(s.front(), '{');
+  EXPECT_NE(s.find("\"incomplete\": false"), std::string::npos);
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "\"max_error_m\": %.9g", m.max_error_m);
+  EXPECT_NE(s.find(buf), std::string::npos);
+  EXPECT_EQ(std::count(s.begin(), s.end(), '['), 3);
+  EXPECT_THROW(writeMetricsJson("/nonexistent_dir/m.json", m), std::runtime_error);
+}
+
+TEST(EvalReport, PlotIsWrittenWithBothCurves) {
+  const auto gt = arc(150, 1.0);
+  const eval::TrajectoryMetrics m = eval::evaluateTrajectory(gt, arc(150, 1.1));
+  const std::string path = tempPath("plot.png");
+  writeTrajectoryPlot(path, gt, m.est_first_aligned, m);
+  const cv::Mat img = cv::imread(path, cv::IMREAD_COLOR);
+  std::filesystem::remove(path);
+  ASSERT_FALSE(img.empty());
+  EXPECT_EQ(img.cols, 1400);
+  EXPECT_EQ(img.rows, 650);
+  // The estimate is drawn in red (BGR 30, 30, 220), the truth in dark grey.
+  int red = 0, dark = 0;
+  for (int y = 0; y < img.rows; ++y)
+    for (int x = 0; x < img.cols; ++x) {
+      const cv::Vec3b p = img.at<cv::Vec3b>(y, x);
+      red += (p[2] > 180 && p[1] < 80 && p[0] < 80) ? 1 : 0;
+      dark += (p[0] < 60 && p[1] < 60 && p[2] < 60) ? 1 : 0;
+    }
+  EXPECT_GT(red, 500);
+  EXPECT_GT(dark, 500);
+  EXPECT_THROW(writeTrajectoryPlot("/nonexistent_dir/p.png", gt, m.est_first_aligned, m), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace seavio::tools

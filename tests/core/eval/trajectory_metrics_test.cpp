@@ -1,0 +1,152 @@
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "core/eval/trajectory_metrics.hpp"
+
+namespace seavio::eval {
+namespace {
+
+/// Straight line along x at 1 m/s sampled at 10 Hz for `seconds`.
+std::vector<TimedPose> line(double seconds, double speed = 1.0, int64_t dt_ns = 100'000'000) {
+  std::vector<TimedPose> out;
+  for (int64_t t = 0; t <= int64_t(std::llround(seconds * 1e9)); t += dt_ns) {
+    TimedPose p;
+    p.t_ns = t;
+    p.T_W_B.translation() = Eigen::Vector3d(speed * 1e-9 * double(t), 0, 0);
+    out.push_back(p);
+  }
+  return out;
+}
+
+TEST(TrajectoryMetrics, PerfectEstimateInAnotherWorldFrameHasZeroError) {
+  // GIVEN the truth seen from a world frame rotated 90 deg and shifted.
+  const auto gt = line(10.0);
+  Eigen::Isometry3d T_other = Eigen::Isometry3d::Identity();
+  T_other.linear() = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T_other.translation() = Eigen::Vector3d(5, -3, 2);
+  auto est = gt;
+  for (auto& p : est) p.T_W_B = T_other * p.T_W_B;
+  const TrajectoryMetrics m = evaluateTrajectory(gt, est);
+  EXPECT_EQ(m.associated, 101);
+  EXPECT_FALSE(m.incomplete);
+  EXPECT_NEAR(m.max_error_m, 0, 1e-9);
+  EXPECT_NEAR(m.ate_rmse_m, 0, 1e-9);
+  EXPECT_NEAR(m.distance_m, 10.0, 1e-9);
+  EXPECT_NEAR(m.coverage, 1.0, 1e-12);
+}
+
+TEST(TrajectoryMetrics, TenPercentScaleDriftMatchesHandComputedFigures) {
+  // Estimate travels 1.1 m per true metre: error at t is 0.1 * t.
+  const auto gt = line(10.0);
+  const auto est = line(10.0, 1.1);
+  EvalParams p;
+  p.rpe_segment_m = 5.0;
+  const TrajectoryMetrics m = evaluateTrajectory(gt, est, p);
+  ASSERT_EQ(m.associated, 101);
+  EXPECT_NEAR(m.mean_error_m, 0.5, 1e-9);
+  EXPECT_NEAR(m.max_error_m, 1.0, 1e-9);
+  EXPECT_NEAR(m.final_error_m, 1.0, 1e-9);
+  // Population std of 0.1 * {0, 0.1, ..., 10}: 0.1 * sqrt(8.5).
+  EXPECT_NEAR(m.std_error_m, 0.1 * std::sqrt(8.5), 1e-9);
+  EXPECT_NEAR(m.mean_error_pct, 5.0, 1e-7);
+  EXPECT_NEAR(m.final_error_pct, 10.0, 1e-7);
+  // Umeyama can only shift a line onto a longer line: the residual is the centred error.
+  EXPECT_NEAR(m.ate_rmse_m, 0.1 * std::sqrt(8.5), 1e-7);
+  EXPECT_GT(m.rpe_segments, 40);
+  EXPECT_NEAR(m.rpe_trans_pct, 10.0, 1e-6);
+  EXPECT_NEAR(m.rpe_rot_deg_per_m, 0.0, 1e-9);
+  ASSERT_EQ(m.error_m.size(), 101u);
+  EXPECT_NEAR(m.distance_along_m[50], 5.0, 1e-9);
+  EXPECT_NEAR(m.error_m[50], 0.5, 1e-9);
+}
+
+TEST(TrajectoryMetrics, RotationDriftGivesDegreesPerMetre) {
+  // Heading error grows 0.01 rad per metre travelled; positions are exact.
+  const auto gt = line(20.0);
+  auto est = gt;
+  for (auto& p : est)
+    p.T_W_B.linear() = Eigen::AngleAxisd(0.01 * p.T_W_B.translation().x(), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const TrajectoryMetrics m = evaluateTrajectory(gt, est);
+  EXPECT_NEAR(m.max_error_m, 0.0, 1e-9);
+  EXPECT_GT(m.rpe_segments, 0);
+  EXPECT_NEAR(m.rpe_rot_deg_per_m, 0.01 * 180.0 / M_PI, 1e-6);
+}
+
+TEST(TrajectoryMetrics, InterpolatesGroundTruthBetweenSamples) {
+  // Estimate at 10 Hz, offset by 50 ms: halfway between ground-truth samples.
+  const auto gt = line(5.0);
+  std::vector<TimedPose> est;
+  for (int64_t t = 50'000'000; t < 5'000'000'000; t += 100'000'000) {
+    TimedPose p;
+    p.t_ns = t;
+    p.T_W_B.translation() = Eigen::Vector3d(1e-9 * double(t), 0, 0);
+    p.T_W_B.linear() = Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitX()).toRotationMatrix();
+    est.push_back(p);
+  }
+  auto gt_rot = gt;
+  for (auto& g : gt_rot) g.T_W_B.linear() = est[0].T_W_B.linear();
+  const TrajectoryMetrics m = evaluateTrajectory(gt_rot, est);
+  EXPECT_EQ(m.associated, int(est.size()));
+  EXPECT_NEAR(m.max_error_m, 0.0, 1e-9);
+  const Eigen::Isometry3d mid = interpolate(gt[1].T_W_B, gt[2].T_W_B, 0.25);
+  EXPECT_NEAR(mid.translation().x(), 0.125, 1e-12);
+}
+
+TEST(TrajectoryMetrics, EstimatesFarFromGroundTruthAreNotAssociated) {
+  const auto gt = line(1.0);  // 0 .. 1 s
+  std::vector<TimedPose> est = line(1.0);
+  TimedPose late;
+  late.t_ns = 1'004'000'000;  // 4 ms after the last truth sample: nearest, within max_dt
+  est.push_back(late);
+  late.t_ns = 1'006'000'000;  // 6 ms: beyond the 5 ms default
+  est.push_back(late);
+  const TrajectoryMetrics m = evaluateTrajectory(gt, est);
+  EXPECT_EQ(m.associated, 12);
+  EXPECT_EQ(m.est_poses, 13);
+}
+
+TEST(TrajectoryMetrics, ShortEstimateIsFlaggedIncomplete) {
+  const auto gt = line(10.0);
+  std::vector<TimedPose> half(gt.begin(), gt.begin() + 50);
+  TrajectoryMetrics m = evaluateTrajectory(gt, half);
+  EXPECT_TRUE(m.incomplete);
+  EXPECT_NEAR(m.coverage, 51.0 / 101.0, 0.02);
+
+  // A 1 Hz estimate of 10 Hz truth covers every frame: complete.
+  std::vector<TimedPose> sparse;
+  for (std::size_t i = 0; i < gt.size(); i += 10) sparse.push_back(gt[i]);
+  m = evaluateTrajectory(gt, sparse);
+  EXPECT_FALSE(m.incomplete);
+  EXPECT_EQ(m.associated, 11);
+
+  // A gap of 3 s in the middle is seen even though start and end are there.
+  std::vector<TimedPose> gap;
+  for (const auto& g : gt)
+    if (g.t_ns < 3'000'000'000 || g.t_ns > 6'000'000'000) gap.push_back(g);
+  m = evaluateTrajectory(gt, gap);
+  EXPECT_TRUE(m.incomplete);
+
+  m = evaluateTrajectory(gt, {});
+  EXPECT_TRUE(m.incomplete);
+  EXPECT_EQ(m.associated, 0);
+}
+
+TEST(TrajectoryMetrics, UmeyamaRecoversRigidTransform) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-5, 5);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(1.2, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(1, -2, 0.5);
+  std::vector<Eigen::Vector3d> src, dst;
+  for (int i = 0; i < 20; ++i) {
+    src.emplace_back(u(rng), u(rng), u(rng));
+    dst.push_back(T * src.back());
+  }
+  const Eigen::Isometry3d A = alignUmeyama(src, dst);
+  EXPECT_LT((A.matrix() - T.matrix()).norm(), 1e-9);
+}
+
+}  // namespace
+}  // namespace seavio::eval

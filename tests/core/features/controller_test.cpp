@@ -1,0 +1,163 @@
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "core/features/feature_count_controller.hpp"
+#include "core/features/feature_extractor.hpp"
+#include "synthetic_texture.hpp"
+
+namespace seavio::features {
+namespace {
+
+/// A detector whose count falls as threshold^-alpha.
+int modelCount(double threshold, double alpha, double scale) {
+  return static_cast<int>(std::lround(scale * std::pow(threshold, -alpha)));
+}
+
+TEST(FeatureCountController, ConvergesOnAPowerLawDetector) {
+  for (double alpha : {0.5, 1.0, 2.0}) {
+    // GIVEN a detector giving 500 features at threshold 1000
+    const double scale = 500.0 * std::pow(1000.0, alpha);
+    FeatureCountController c;
+    // WHEN the loop runs
+    int n = 0;
+    for (int k = 0; k < 25; ++k) {
+      n = modelCount(c.threshold(), alpha, scale);
+      c.update(n);
+    }
+    // THEN the count reaches the target
+    EXPECT_NEAR(n, 500, 10) << "alpha " << alpha;
+    EXPECT_NEAR(c.threshold(), 1000.0, 50.0) << "alpha " << alpha;
+  }
+}
+
+TEST(FeatureCountController, ClampsAndSurvivesEmptyFrames) {
+  FeatureCountControllerParams p;
+  p.min_threshold = 10;
+  p.max_threshold = 1000;
+  p.initial_threshold = 100;
+  FeatureCountController c(p);
+  c.update(0);
+  EXPECT_NEAR(c.threshold(), 25.0, 1e-9) << "one step is at most a factor of 4";
+  for (int k = 0; k < 10; ++k) c.update(0);
+  EXPECT_DOUBLE_EQ(c.threshold(), 10.0);
+  for (int k = 0; k < 10; ++k) c.update(1000000);
+  EXPECT_DOUBLE_EQ(c.threshold(), 1000.0);
+  c.reset();
+  EXPECT_DOUBLE_EQ(c.threshold(), 100.0);
+  c.update(500);
+  EXPECT_DOUBLE_EQ(c.threshold(), 100.0) << "on target: no change";
+}
+
+TEST(FeatureCountController, RejectsBadParameters) {
+  FeatureCountControllerParams p;
+  p.target_count = 0;
+  p.gain = -1;
+  p.min_threshold = 10;
+  p.max_threshold = 5;
+  EXPECT_GE(validate(p).size(), 3u);
+  EXPECT_THROW(FeatureCountController{p}, std::invalid_argument);
+}
+
+/// Frame k of a camera gliding over a texture, with contrast `contrast` about mid-grey.
+cv::Mat frame(const cv::Mat& world, int k, double contrast) {
+  cv::Mat crop = world(cv::Rect(8 * k, 5 * k, 320, 240));
+  cv::Mat out;
+  crop.convertTo(out, CV_8U, contrast, 128.0 * (1.0 - contrast));
+  return out;
+}
+
+TEST(FeatureCountController, HoldsSurfCountThroughAContrastRampAndAStep) {
+  // GIVEN SURF driven by the controller, target 300, starting far from the right threshold
+  const cv::Mat world = testing::makeTexture(320 + 8 * 60, 240 + 5 * 60, 31, 1200);
+  FeatureParams fp;
+  fp.controller = defaultControllerParams(DetectorType::kSurf, 300);
+  fp.controller.initial_threshold = 5000;
+  const FeatureExtractor extractor(fp);
+  FeatureCountController controller(fp.controller);
+  std::vector<int> counts;
+  std::vector<double> contrast;
+  // Frames 0-9 full contrast, 10-29 a ramp down to 0.5, 30-39 a step down to 0.3.
+  for (int k = 0; k < 40; ++k) {
+    const double c = k < 10 ? 1.0 : k < 30 ? 1.0 - 0.5 * (k - 9) / 20.0 : 0.3;
+    contrast.push_back(c);
+    const int n = static_cast<int>(extractor.extract(frame(world, k, c), controller.threshold()).keypoints.size());
+    counts.push_back(n);
+    controller.update(n);
+  }
+  for (int k = 0; k < 40; ++k) std::printf("%d:%d ", k, counts[k]);
+  std::printf("\n");
+  // THEN it settles within a few frames of the start
+  for (int k = 4; k < 10; ++k) EXPECT_NEAR(counts[k], 300, 45) << "frame " << k;
+  // AND holds the count while the contrast (hence det(H), ~contrast^2) ramps down
+  for (int k = 10; k < 30; ++k) EXPECT_NEAR(counts[k], 300, 60) << "frame " << k;
+  // AND after the step the count drops, then recovers within a few frames
+  EXPECT_LT(counts[30], 200);
+  for (int k = 34; k < 40; ++k) EXPECT_NEAR(counts[k], 300, 45) << "frame " << k;
+}
+
+TEST(FeatureExtractor, ParsesDetectorNames) {
+  EXPECT_EQ(parseDetectorType("surf"), DetectorType::kSurf);
+  EXPECT_EQ(parseDetectorType("SIFT"), DetectorType::kSift);
+  EXPECT_EQ(parseDetectorType("Orb"), DetectorType::kOrb);
+  EXPECT_EQ(parseDetectorType("akaze"), DetectorType::kAkaze);
+  for (auto t : {DetectorType::kSurf, DetectorType::kSift, DetectorType::kOrb, DetectorType::kAkaze}) {
+    EXPECT_EQ(parseDetectorType(toString(t)), t);
+    const ThresholdRange r = defaultThresholdRange(t);
+    EXPECT_LT(r.min, r.initial);
+    EXPECT_LT(r.initial, r.max);
+  }
+  try {
+    parseDetectorType("brisk");
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("brisk"), std::string::npos);
+  }
+}
+
+TEST(FeatureExtractor, TheControllerDrivesEveryDetector) {
+  const cv::Mat world = testing::makeTexture(320 + 8 * 10, 240 + 5 * 10, 41, 1200);
+  for (auto type : {DetectorType::kSurf, DetectorType::kSift, DetectorType::kOrb, DetectorType::kAkaze}) {
+    // GIVEN a detector and its default controller, target 200
+    FeatureParams fp;
+    fp.type = type;
+    fp.controller = defaultControllerParams(type, 200);
+    const FeatureExtractor extractor(fp);
+    FeatureCountController controller(fp.controller);
+    // WHEN it runs on a few frames
+    Features f;
+    for (int k = 0; k < 8; ++k) {
+      f = extractor.extract(frame(world, k, 1.0), controller.threshold());
+      controller.update(static_cast<int>(f.keypoints.size()));
+    }
+    // THEN the count is near the target and the output is consistent
+    const int n = static_cast<int>(f.keypoints.size());
+    std::printf("%s: %d features at threshold %g\n", toString(type).c_str(), n, controller.threshold());
+    EXPECT_NEAR(n, 200, 50) << toString(type);
+    EXPECT_EQ(f.descriptors.rows, n);
+    const bool binary = type == DetectorType::kOrb || type == DetectorType::kAkaze;
+    EXPECT_EQ(f.norm_type, binary ? cv::NORM_HAMMING : cv::NORM_L2);
+    EXPECT_EQ(f.descriptors.type(), binary ? CV_8U : CV_32F);
+  }
+}
+
+TEST(FeatureExtractor, CapsTheCountAndRejectsColour) {
+  FeatureParams fp;
+  fp.max_features = 50;
+  const FeatureExtractor extractor(fp);
+  const cv::Mat img = testing::makeTexture(320, 240, 42);
+  const Features f = extractor.extract(img, 10);
+  EXPECT_EQ(f.keypoints.size(), 50u);
+  EXPECT_EQ(f.descriptors.rows, 50);
+  EXPECT_TRUE(extractor.extract(cv::Mat(), 10).keypoints.empty());
+  EXPECT_THROW(extractor.extract(cv::Mat(10, 10, CV_8UC3), 10), std::invalid_argument);
+  FeatureParams sift = fp;
+  sift.type = DetectorType::kSift;
+  sift.controller = defaultControllerParams(DetectorType::kSift);
+  EXPECT_EQ(FeatureExtractor(sift).extract(img, 0.01).keypoints.size(), 50u);
+}
+
+}  // namespace
+}  // namespace seavio::features

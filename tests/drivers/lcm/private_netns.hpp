@@ -1,0 +1,73 @@
+#pragma once
+// Test helper: moves the calling (still single-threaded) test process into a private
+// network namespace whose loopback carries multicast, so LCM's udpm provider works on
+// loopback without touching the host network and tests never collide with each other.
+// Root may create the namespace directly; otherwise an unprivileged user namespace is used.
+#include <arpa/inet.h>
+#include <net/if.h>
+#include <net/route.h>
+#include <netinet/in.h>
+#include <sched.h>
+#include <sys/ioctl.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+#include <string>
+
+namespace seavio::test {
+
+inline bool writeFile(const std::string& path, const std::string& text) {
+  std::ofstream f(path);
+  f << text;
+  return static_cast<bool>(f);
+}
+
+/// Returns "" on success, else why it failed. Call before starting any thread.
+inline std::string enterPrivateMulticastNetns() {
+  const uid_t uid = getuid();
+  const gid_t gid = getgid();
+  if (unshare(CLONE_NEWNET) != 0) {
+    if (unshare(CLONE_NEWUSER | CLONE_NEWNET) != 0) {
+      return std::string("unshare(CLONE_NEWUSER|CLONE_NEWNET): ") + std::strerror(errno);
+    }
+    writeFile("/proc/self/setgroups", "deny");
+    if (!writeFile("/proc/self/uid_map", "0 " + std::to_string(uid) + " 1") ||
+        !writeFile("/proc/self/gid_map", "0 " + std::to_string(gid) + " 1")) {
+      return "cannot write uid_map/gid_map";
+    }
+  }
+  const int fd = socket(AF_INET, SOCK_DGRAM, 0);
+  if (fd < 0) return std::string("socket: ") + std::strerror(errno);
+  ifreq ifr{};
+  std::strncpy(ifr.ifr_name, "lo", IFNAMSIZ - 1);
+  if (ioctl(fd, SIOCGIFFLAGS, &ifr) != 0) {
+    close(fd);
+    return std::string("SIOCGIFFLAGS lo: ") + std::strerror(errno);
+  }
+  ifr.ifr_flags = static_cast<short>(ifr.ifr_flags | IFF_UP | IFF_RUNNING);
+  if (ioctl(fd, SIOCSIFFLAGS, &ifr) != 0) {
+    close(fd);
+    return std::string("SIOCSIFFLAGS lo up: ") + std::strerror(errno);
+  }
+  // ip route add 224.0.0.0/4 dev lo
+  rtentry rt{};
+  auto* dst = reinterpret_cast<sockaddr_in*>(&rt.rt_dst);
+  auto* mask = reinterpret_cast<sockaddr_in*>(&rt.rt_genmask);
+  dst->sin_family = AF_INET;
+  dst->sin_addr.s_addr = inet_addr("224.0.0.0");
+  mask->sin_family = AF_INET;
+  mask->sin_addr.s_addr = inet_addr("240.0.0.0");
+  char dev[] = "lo";
+  rt.rt_dev = dev;
+  rt.rt_flags = RTF_UP;
+  const int r = ioctl(fd, SIOCADDRT, &rt);
+  const int err = errno;
+  close(fd);
+  if (r != 0 && err != EEXIST) return std::string("SIOCADDRT 224.0.0.0/4 dev lo: ") + std::strerror(err);
+  return "";
+}
+
+}  // namespace seavio::test

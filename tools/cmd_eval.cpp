@@ -1,0 +1,70 @@
+// `seavio eval`: accuracy of an estimated trajectory against ground truth (paper Table I,
+// Figs. 6 and 7).
+#include <iostream>
+
+#include <spdlog/spdlog.h>
+
+#include "core/eval/trajectory_metrics.hpp"
+#include "drivers/dataset/dataset.hpp"
+#include "drivers/dataset/tum_io.hpp"
+#include "tools/command_registry.hpp"
+#include "tools/eval_report.hpp"
+
+namespace seavio::tools {
+namespace {
+
+struct EvalOptions {
+  std::string gt, est, plot, json;
+  double max_dt_ms = 5.0;
+  double segment_m = 10.0;
+};
+
+int runEval(const EvalOptions& o) {
+  std::vector<eval::TimedPose> gt, est;
+  try {
+    gt = drivers::readTrajectory(o.gt);
+    est = drivers::readTum(o.est);
+  } catch (const drivers::InputError& e) {
+    spdlog::error("{}", e.what());
+    return 2;
+  }
+  eval::EvalParams p;
+  p.max_dt_ns = static_cast<int64_t>(o.max_dt_ms * 1e6);
+  p.rpe_segment_m = o.segment_m;
+  const eval::TrajectoryMetrics m = eval::evaluateTrajectory(gt, est, p);
+  printMetrics(std::cout, m);
+  try {
+    if (!o.json.empty()) writeMetricsJson(o.json, m);
+    if (!o.plot.empty()) writeTrajectoryPlot(o.plot, gt, m.est_first_aligned, m);
+  } catch (const std::exception& e) {
+    spdlog::error("{}", e.what());
+    return 2;
+  }
+  if (m.associated == 0) {
+    spdlog::error("no estimated pose lies within {} ms of the ground truth", o.max_dt_ms);
+    return 3;
+  }
+  return m.incomplete ? 4 : 0;
+}
+
+const RegisterCommand kRegister("eval", [](CLI::App& app) {
+  auto opts = std::make_shared<EvalOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "eval", "Compare a TUM trajectory with ground truth (Table I errors, drift %, ATE, RPE per 10 m)");
+  cmd->add_option("--gt", opts->gt, "ground truth: EuRoC/KITTI dataset folder or TUM file")->required();
+  cmd->add_option("--est", opts->est, "estimated trajectory, TUM format")->required();
+  cmd->add_option("--plot", opts->plot, "write top view and error over distance to this PNG");
+  cmd->add_option("--json", opts->json, "write the metrics to this JSON file");
+  cmd->add_option("--max-dt-ms", opts->max_dt_ms, "largest time gap for association [ms]")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--segment-m", opts->segment_m, "relative pose error segment length [m]")
+      ->check(CLI::PositiveNumber);
+  cmd->footer("Exit status: 0 ok, 2 bad input, 3 nothing associated, 4 incomplete (< 95% of ground truth).");
+  cmd->callback([opts] {
+    const int rc = runEval(*opts);
+    if (rc != 0) throw CLI::RuntimeError(rc);
+  });
+});
+
+}  // namespace
+}  // namespace seavio::tools

@@ -1,0 +1,133 @@
+// `seavio run`: the odometry over a recorded dataset, as fast as it goes, deterministic.
+#include <algorithm>
+#include <chrono>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <spdlog/spdlog.h>
+
+#include "core/eval/trajectory_metrics.hpp"
+#include "core/imu/imu_integrator.hpp"
+#include "core/odometry/odometry.hpp"
+#include "drivers/config/odometry_config.hpp"
+#include "drivers/dataset/dataset.hpp"
+#include "drivers/dataset/tum_io.hpp"
+#include "tools/command_registry.hpp"
+#include "tools/run_stats.hpp"
+
+namespace seavio::tools {
+namespace {
+
+struct RunOptions {
+  std::string dataset;
+  std::string mode = "local";
+  std::string config;
+  std::string kalibr;
+  std::string out = "trajectory.txt";
+  std::string stats;
+  int max_frames = 0;
+  bool quiet = false;
+};
+
+int64_t monotonicNowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+/// Dead reckoning only (paper III-A), for comparison with the visual pipeline.
+std::vector<eval::TimedPose> runImuOnly(const drivers::Dataset& ds, std::size_t n_frames) {
+  std::vector<eval::TimedPose> out;
+  if (!ds.has_imu || ds.imu.empty()) throw drivers::InputError(ds.root + ": --mode imu needs IMU data (imu0)");
+  NavState s;
+  s.t_ns = ds.frames.front().t_ns;
+  std::vector<ImuSample> first;
+  for (const auto& m : ds.imu)
+    if (m.t_ns <= s.t_ns && m.t_ns > s.t_ns - 1'000'000'000) first.push_back(m);
+  if (const auto R = imu::attitudeFromAccelerometer(first, 0.2)) s.T_W_B.linear() = *R;
+  for (std::size_t i = 0; i < n_frames; ++i) {
+    const auto p = imu::propagate(s, imu::Matrix9d::Zero(), ds.imu, ds.frames[i].t_ns, ds.imu_noise);
+    s = p.state;
+    out.push_back({s.t_ns, s.T_W_B});
+  }
+  return out;
+}
+
+int run(const RunOptions& o) {
+  const drivers::Dataset ds =
+      drivers::loadDataset(o.dataset, o.kalibr.empty() ? std::nullopt : std::optional<std::string>(o.kalibr));
+  if (ds.frames.empty()) throw drivers::InputError(o.dataset + ": no stereo frames");
+  odometry::OdometryParams params = config::loadOdometryParamsFile(o.config);
+  if (o.mode == "local") {
+    params.mode = odometry::Mode::kLocal;
+  } else if (o.mode == "global") {
+    params.mode = odometry::Mode::kGlobal;
+  } else if (o.mode != "imu") {
+    throw drivers::InputError("--mode: expected local, global or imu, got '" + o.mode + "'");
+  }
+  const std::size_t n = o.max_frames > 0 ? std::min<std::size_t>(ds.frames.size(), static_cast<std::size_t>(o.max_frames))
+                                         : ds.frames.size();
+  spdlog::info("run: {} ({} frames, {} IMU samples), mode {}", ds.root, n, ds.imu.size(), o.mode);
+
+  std::vector<eval::TimedPose> trajectory;
+  RunStats stats;
+  if (o.mode == "imu") {
+    trajectory = runImuOnly(ds, n);
+  } else {
+    std::string error;
+    auto rectifier = camera::StereoRectifier::create(ds.calibration, &error);
+    if (!rectifier) throw drivers::InputError(ds.root + ": calibration unusable: " + error);
+    const camera::RectifiedRig& rig = rectifier->rig();
+    spdlog::info("rectified rig: {}x{} f {:.3f} px c ({:.3f}, {:.3f}) baseline {:.5f} m, R0 in body at ({:.4f}, {:.4f}, {:.4f})",
+                 rig.width, rig.height, rig.f_px, rig.cx, rig.cy, rig.baseline_m, rig.T_B_R0.translation().x(),
+                 rig.T_B_R0.translation().y(), rig.T_B_R0.translation().z());
+    odometry::Odometry odo(std::move(*rectifier), ds.imu_noise, params, monotonicNowNs);
+    std::size_t imu_cursor = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const StereoFrame frame = drivers::loadFrame(ds, i);
+      // Hand over the samples up to and including the first one after the frame.
+      const std::size_t begin = imu_cursor > 0 ? imu_cursor - 1 : 0;
+      while (imu_cursor < ds.imu.size() && ds.imu[imu_cursor].t_ns <= frame.t_ns) ++imu_cursor;
+      const std::size_t end = std::min(ds.imu.size(), imu_cursor + 1);
+      const std::span<const ImuSample> imu(ds.imu.data() + begin, end - begin);
+      const OdometryResult r = odo.process(frame, imu);
+      trajectory.push_back({r.t_ns, r.T_W_B});
+      stats.add(r);
+      if (!o.quiet && (i % 100 == 0 || i + 1 == n))
+        spdlog::info("frame {}/{}: features {} stereo {} temporal {} inliers {} icp {} {:.1f} ms", i + 1, n,
+                     r.quality.features_left, r.quality.stereo_matches, r.quality.temporal_matches,
+                     r.quality.ransac_inliers, r.quality.icp_iterations, r.times.total_ms);
+    }
+    stats.printTable(std::cout);
+    if (!o.stats.empty()) stats.writeJson(o.stats);
+  }
+  drivers::writeTum(o.out, trajectory);
+  spdlog::info("run: wrote {} poses to {}", trajectory.size(), o.out);
+  return 0;
+}
+
+const RegisterCommand kRegister("run", [](CLI::App& app) {
+  auto opts = std::make_shared<RunOptions>();
+  CLI::App* sub = app.add_subcommand("run", "Run the odometry over a dataset (EuRoC/ASL or KITTI) and write a TUM trajectory");
+  sub->add_option("--dataset", opts->dataset, "Dataset folder (EuRoC/ASL or KITTI odometry)")->required();
+  sub->add_option("--mode", opts->mode, "local | global | imu (dead reckoning only)");
+  sub->add_option("--config", opts->config, "Tuning YAML (default: built-in defaults)");
+  sub->add_option("--calib", opts->kalibr, "Kalibr camchain-imucam.yaml overriding the dataset's calibration");
+  sub->add_option("--out", opts->out, "Output TUM trajectory");
+  sub->add_option("--stats", opts->stats, "Per-frame statistics as JSON");
+  sub->add_option("--max-frames", opts->max_frames, "Process at most N frames");
+  sub->add_flag("--quiet", opts->quiet, "Less progress output");
+  sub->callback([opts] {
+    try {
+      run(*opts);
+    } catch (const std::exception& e) {
+      spdlog::error("run: {}", e.what());
+      throw CLI::RuntimeError(1);
+    }
+  });
+});
+
+}  // namespace
+}  // namespace seavio::tools

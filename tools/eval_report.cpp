@@ -1,0 +1,204 @@
+#include "tools/eval_report.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <stdexcept>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace seavio::tools {
+namespace {
+
+std::string fmt(const char* f, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), f, v);
+  return buf;
+}
+
+/// Tick spacing of 1, 2 or 5 x 10^k giving about `n` ticks over `range`.
+double niceStep(double range, int n) {
+  if (!(range > 0)) return 1.0;
+  const double raw = range / n;
+  const double p = std::pow(10.0, std::floor(std::log10(raw)));
+  for (double m : {1.0, 2.0, 5.0})
+    if (raw <= m * p) return m * p;
+  return 10.0 * p;
+}
+
+std::string tickLabel(double v, double step) {
+  const int decimals = step >= 1.0 ? 0 : int(std::ceil(-std::log10(step)));
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.*f", decimals, std::abs(v) < 1e-12 ? 0.0 : v);
+  return buf;
+}
+
+/// A plot area inside `panel` mapping data [x0,x1] x [y0,y1] to pixels, y up.
+struct Axes {
+  cv::Rect area;
+  double x0, x1, y0, y1;
+  cv::Point px(double x, double y) const {
+    return {area.x + int(std::lround((x - x0) / (x1 - x0) * area.width)),
+            area.y + area.height - int(std::lround((y - y0) / (y1 - y0) * area.height))};
+  }
+};
+
+const cv::Scalar kBlack(0, 0, 0), kGrey(215, 215, 215), kTruth(40, 40, 40), kEst(30, 30, 220);
+constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
+
+void drawAxes(cv::Mat& img, const Axes& a, const std::string& xlabel, const std::string& ylabel,
+              const std::string& title) {
+  const double sx = niceStep(a.x1 - a.x0, 6), sy = niceStep(a.y1 - a.y0, 6);
+  for (double x = std::ceil(a.x0 / sx) * sx; x <= a.x1 + 1e-9; x += sx) {
+    const cv::Point p = a.px(x, a.y0);
+    cv::line(img, {p.x, a.area.y}, {p.x, a.area.y + a.area.height}, kGrey, 1);
+    const std::string s = tickLabel(x, sx);
+    int base = 0;
+    const cv::Size ts = cv::getTextSize(s, kFont, 0.45, 1, &base);
+    cv::putText(img, s, {p.x - ts.width / 2, p.y + 20}, kFont, 0.45, kBlack, 1, cv::LINE_AA);
+  }
+  for (double y = std::ceil(a.y0 / sy) * sy; y <= a.y1 + 1e-9; y += sy) {
+    const cv::Point p = a.px(a.x0, y);
+    cv::line(img, {a.area.x, p.y}, {a.area.x + a.area.width, p.y}, kGrey, 1);
+    const std::string s = tickLabel(y, sy);
+    int base = 0;
+    const cv::Size ts = cv::getTextSize(s, kFont, 0.45, 1, &base);
+    cv::putText(img, s, {p.x - ts.width - 8, p.y + 5}, kFont, 0.45, kBlack, 1, cv::LINE_AA);
+  }
+  cv::rectangle(img, a.area, kBlack, 1);
+  int base = 0;
+  const cv::Size xs = cv::getTextSize(xlabel, kFont, 0.55, 1, &base);
+  cv::putText(img, xlabel, {a.area.x + (a.area.width - xs.width) / 2, a.area.y + a.area.height + 45}, kFont, 0.55,
+              kBlack, 1, cv::LINE_AA);
+  // Vertical label: draw horizontally then rotate into place.
+  const cv::Size ys = cv::getTextSize(ylabel, kFont, 0.55, 1, &base);
+  cv::Mat lab(ys.height + base + 4, ys.width + 4, CV_8UC3, cv::Scalar(255, 255, 255));
+  cv::putText(lab, ylabel, {2, ys.height + 1}, kFont, 0.55, kBlack, 1, cv::LINE_AA);
+  cv::rotate(lab, lab, cv::ROTATE_90_COUNTERCLOCKWISE);
+  const int lx = std::max(0, a.area.x - 75), ly = a.area.y + (a.area.height - lab.rows) / 2;
+  if (ly >= 0 && ly + lab.rows <= img.rows && lx + lab.cols <= img.cols) lab.copyTo(img(cv::Rect(lx, ly, lab.cols, lab.rows)));
+  const cv::Size tsz = cv::getTextSize(title, kFont, 0.6, 1, &base);
+  cv::putText(img, title, {a.area.x + (a.area.width - tsz.width) / 2, a.area.y - 12}, kFont, 0.6, kBlack, 1,
+              cv::LINE_AA);
+}
+
+void polyline(cv::Mat& img, const Axes& a, const std::vector<cv::Point2d>& pts, const cv::Scalar& c, int w) {
+  for (std::size_t i = 1; i < pts.size(); ++i)
+    cv::line(img, a.px(pts[i - 1].x, pts[i - 1].y), a.px(pts[i].x, pts[i].y), c, w, cv::LINE_AA);
+}
+
+}  // namespace
+
+void printMetrics(std::ostream& os, const eval::TrajectoryMetrics& m) {
+  os << "poses: ground truth " << m.gt_poses << ", estimate " << m.est_poses << ", associated " << m.associated
+     << ", coverage " << fmt("%.1f", 100.0 * m.coverage) << " %\n";
+  if (m.incomplete)
+    os << "INCOMPLETE: the estimate covers " << fmt("%.1f", 100.0 * m.coverage)
+       << " % of the ground-truth frames (< 95 %); figures below are over the covered part only\n";
+  if (m.associated == 0) return;
+  os << "\nPosition error after aligning the first pose (paper Table I):\n";
+  os << "  distance [m]   mean [m]   std [m]   max [m]   final [m]   mean [%]   final [%]\n";
+  char buf[256];
+  std::snprintf(buf, sizeof(buf), "  %12.2f %10.3f %9.3f %9.3f %11.3f %10.2f %11.2f\n", m.distance_m, m.mean_error_m,
+                m.std_error_m, m.max_error_m, m.final_error_m, m.mean_error_pct, m.final_error_pct);
+  os << buf;
+  os << "\nATE RMSE after SE(3) Umeyama alignment: " << fmt("%.3f", m.ate_rmse_m) << " m\n";
+  if (m.rpe_segments > 0)
+    os << "RPE per 10 m (" << m.rpe_segments << " segments): translation " << fmt("%.2f", m.rpe_trans_pct)
+       << " %, rotation " << fmt("%.4f", m.rpe_rot_deg_per_m) << " deg/m\n";
+  else
+    os << "RPE per 10 m: trajectory shorter than one segment\n";
+}
+
+void writeMetricsJson(const std::string& path, const eval::TrajectoryMetrics& m) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error(path + ": cannot open for writing");
+  auto num = [](double v) { return std::isfinite(v) ? fmt("%.9g", v) : std::string("null"); };
+  out << "{\n";
+  out << "  \"gt_poses\": " << m.gt_poses << ",\n  \"est_poses\": " << m.est_poses
+      << ",\n  \"associated\": " << m.associated << ",\n  \"coverage\": " << num(m.coverage)
+      << ",\n  \"incomplete\": " << (m.incomplete ? "true" : "false") << ",\n";
+  const std::pair<const char*, double> scalars[] = {
+      {"distance_m", m.distance_m},         {"mean_error_m", m.mean_error_m},
+      {"std_error_m", m.std_error_m},       {"max_error_m", m.max_error_m},
+      {"final_error_m", m.final_error_m},   {"mean_error_pct", m.mean_error_pct},
+      {"final_error_pct", m.final_error_pct}, {"ate_rmse_m", m.ate_rmse_m},
+      {"rpe_trans_pct", m.rpe_trans_pct},   {"rpe_rot_deg_per_m", m.rpe_rot_deg_per_m}};
+  for (const auto& [k, v] : scalars) out << "  \"" << k << "\": " << num(v) << ",\n";
+  out << "  \"rpe_segments\": " << m.rpe_segments << ",\n";
+  auto arr = [&](const char* k, const std::vector<double>& v, bool last) {
+    out << "  \"" << k << "\": [";
+    for (std::size_t i = 0; i < v.size(); ++i) out << (i ? ", " : "") << num(v[i]);
+    out << "]" << (last ? "\n" : ",\n");
+  };
+  std::vector<double> t_s(m.t_ns.size());
+  for (std::size_t i = 0; i < t_s.size(); ++i) t_s[i] = 1e-9 * double(m.t_ns[i]);
+  arr("t_s", t_s, false);
+  arr("distance_along_m", m.distance_along_m, false);
+  arr("error_m", m.error_m, true);
+  out << "}\n";
+  if (!out) throw std::runtime_error(path + ": write error");
+}
+
+void writeTrajectoryPlot(const std::string& path_png, const std::vector<eval::TimedPose>& gt,
+                         const std::vector<Eigen::Vector3d>& est_aligned, const eval::TrajectoryMetrics& m) {
+  cv::Mat img(650, 1400, CV_8UC3, cv::Scalar(255, 255, 255));
+
+  // Top view: equal scale on x and y so shapes are not distorted.
+  std::vector<cv::Point2d> g, e;
+  for (const auto& p : gt) g.emplace_back(p.T_W_B.translation().x(), p.T_W_B.translation().y());
+  for (const auto& p : est_aligned) e.emplace_back(p.x(), p.y());
+  double xmin = 1e300, xmax = -1e300, ymin = 1e300, ymax = -1e300;
+  for (const auto* v : {&g, &e})
+    for (const auto& p : *v) {
+      xmin = std::min(xmin, p.x);
+      xmax = std::max(xmax, p.x);
+      ymin = std::min(ymin, p.y);
+      ymax = std::max(ymax, p.y);
+    }
+  if (xmin > xmax) xmin = ymin = -1, xmax = ymax = 1;
+  const cv::Rect top_area(100, 60, 520, 500);
+  const double span = std::max({xmax - xmin, (ymax - ymin) * top_area.width / top_area.height, 1e-3}) * 1.1;
+  const double cxm = 0.5 * (xmin + xmax), cym = 0.5 * (ymin + ymax);
+  const double yspan = span * top_area.height / top_area.width;
+  const Axes top{top_area, cxm - span / 2, cxm + span / 2, cym - yspan / 2, cym + yspan / 2};
+  drawAxes(img, top, "x [m]", "y [m]", "Top view (x-y)");
+  polyline(img, top, g, kTruth, 2);
+  polyline(img, top, e, kEst, 2);
+  if (!g.empty()) cv::circle(img, top.px(g[0].x, g[0].y), 5, kTruth, cv::FILLED, cv::LINE_AA);
+  // Legend on a white box so the curves never hide it.
+  cv::rectangle(img, cv::Rect(top_area.x + 8, top_area.y + 8, 300, 48), cv::Scalar(255, 255, 255), cv::FILLED);
+  cv::rectangle(img, cv::Rect(top_area.x + 8, top_area.y + 8, 300, 48), kGrey, 1);
+  cv::line(img, {top_area.x + 15, top_area.y + 20}, {top_area.x + 45, top_area.y + 20}, kTruth, 2);
+  cv::putText(img, "ground truth", {top_area.x + 52, top_area.y + 25}, kFont, 0.5, kTruth, 1, cv::LINE_AA);
+  cv::line(img, {top_area.x + 15, top_area.y + 42}, {top_area.x + 45, top_area.y + 42}, kEst, 2);
+  cv::putText(img, "estimate (first pose aligned)", {top_area.x + 52, top_area.y + 47}, kFont, 0.5, kEst, 1,
+              cv::LINE_AA);
+
+  // Error over distance travelled.
+  std::vector<cv::Point2d> err;
+  for (std::size_t i = 0; i < m.error_m.size(); ++i) err.emplace_back(m.distance_along_m[i], m.error_m[i]);
+  const double dmax = std::max(m.distance_m, 1e-3), emax = std::max(m.max_error_m, 1e-3) * 1.1;
+  const Axes right{cv::Rect(800, 60, 560, 500), 0.0, dmax, 0.0, emax};
+  drawAxes(img, right, "distance travelled [m]", "position error [m]", "Position error over distance");
+  polyline(img, right, err, kEst, 2);
+
+  std::string summary = "mean " + fmt("%.3f", m.mean_error_m) + " m, std " + fmt("%.3f", m.std_error_m) + " m, max " +
+                        fmt("%.3f", m.max_error_m) + " m, final " + fmt("%.3f", m.final_error_m) + " m (" +
+                        fmt("%.2f", m.final_error_pct) + " % of " + fmt("%.1f", m.distance_m) + " m), ATE " +
+                        fmt("%.3f", m.ate_rmse_m) + " m";
+  if (m.incomplete) summary = "INCOMPLETE (" + fmt("%.0f", 100 * m.coverage) + " % covered)  " + summary;
+  cv::putText(img, summary, {100, 635}, kFont, 0.55, m.incomplete ? kEst : kBlack, 1, cv::LINE_AA);
+
+  bool ok = false;
+  try {
+    ok = cv::imwrite(path_png, img);
+  } catch (const cv::Exception&) {
+    ok = false;
+  }
+  if (!ok) throw std::runtime_error(path_png + ": cannot write PNG");
+}
+
+}  // namespace seavio::tools

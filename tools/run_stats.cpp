@@ -1,0 +1,101 @@
+#include "tools/run_stats.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <stdexcept>
+
+#include <spdlog/fmt/fmt.h>
+
+namespace seavio::tools {
+
+double RunStats::percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const double idx = std::clamp(p / 100.0, 0.0, 1.0) * static_cast<double>(v.size() - 1);
+  const auto lo = static_cast<std::size_t>(std::floor(idx));
+  const auto hi = static_cast<std::size_t>(std::ceil(idx));
+  return v[lo] + (v[hi] - v[lo]) * (idx - static_cast<double>(lo));
+}
+
+namespace {
+
+struct Column {
+  const char* name;
+  std::function<double(const OdometryResult&)> get;
+  double paper_local_ms;  ///< paper Table II, local variant (negative: not reported)
+};
+
+std::vector<Column> columns() {
+  return {
+      {"rectify", [](const OdometryResult& r) { return r.times.rectify_ms; }, -1},
+      {"features (L+R)", [](const OdometryResult& r) { return r.times.features_ms; }, 224},
+      {"stereo match", [](const OdometryResult& r) { return r.times.stereo_ms; }, -1},
+      {"temporal match", [](const OdometryResult& r) { return r.times.temporal_ms; }, -1},
+      {"tensor (RANSAC)", [](const OdometryResult& r) { return r.times.tensor_ms; }, 5},
+      {"ICP", [](const OdometryResult& r) { return r.times.icp_ms; }, 37},
+      {"total", [](const OdometryResult& r) { return r.times.total_ms; }, 266},
+  };
+}
+
+}  // namespace
+
+void RunStats::printTable(std::ostream& os) const {
+  os << fmt::format("\nper-stage time over {} frames [ms]   (paper Table II, local, 2.67 GHz i7)\n", frames_.size());
+  os << fmt::format("{:<18}{:>10}{:>10}{:>10}{:>12}\n", "stage", "median", "p99", "max", "paper");
+  for (const Column& c : columns()) {
+    std::vector<double> v;
+    v.reserve(frames_.size());
+    for (const auto& f : frames_) v.push_back(c.get(f));
+    const std::string paper = c.paper_local_ms < 0 ? "-" : fmt::format("{:.0f}", c.paper_local_ms);
+    os << fmt::format("{:<18}{:>10.2f}{:>10.2f}{:>10.2f}{:>12}\n", c.name, percentile(v, 50), percentile(v, 99),
+                      percentile(v, 100), paper);
+  }
+  std::vector<double> feat, stereo, temporal, inliers;
+  int imu_only = 0;
+  for (const auto& f : frames_) {
+    feat.push_back(f.quality.features_left);
+    stereo.push_back(f.quality.stereo_matches);
+    temporal.push_back(f.quality.temporal_matches);
+    inliers.push_back(f.quality.ransac_inliers);
+    imu_only += f.source == PoseSource::kImuOnly;
+  }
+  os << fmt::format("median features {:.0f}, stereo matches {:.0f}, inter-frame matches {:.0f}, RANSAC inliers {:.0f}; "
+                    "IMU-only frames {}\n\n",
+                    percentile(feat, 50), percentile(stereo, 50), percentile(temporal, 50), percentile(inliers, 50),
+                    imu_only);
+}
+
+void RunStats::writeJson(const std::string& path) const {
+  std::ofstream os(path);
+  if (!os) throw std::runtime_error(path + ": cannot open for writing");
+  os << "{\n  \"summary\": {";
+  bool first = true;
+  for (const Column& c : columns()) {
+    std::vector<double> v;
+    for (const auto& f : frames_) v.push_back(c.get(f));
+    os << (first ? "" : ",") << fmt::format("\n    \"{}\": {{\"median_ms\": {:.4f}, \"p99_ms\": {:.4f}}}", c.name,
+                                            percentile(v, 50), percentile(v, 99));
+    first = false;
+  }
+  os << "\n  },\n  \"frames\": [";
+  for (std::size_t i = 0; i < frames_.size(); ++i) {
+    const auto& f = frames_[i];
+    os << (i ? "," : "")
+       << fmt::format(
+              "\n    {{\"t_ns\": {}, \"seq\": {}, \"source\": {}, \"features_left\": {}, \"features_right\": {}, "
+              "\"stereo_matches\": {}, \"temporal_matches\": {}, \"ransac_inliers\": {}, \"icp_iterations\": {}, "
+              "\"icp_inliers\": {}, \"icp_rms_m\": {:.6f}, \"model_points\": {}, \"detector_threshold\": {:.3f}, "
+              "\"rectify_ms\": {:.3f}, \"features_ms\": {:.3f}, \"stereo_ms\": {:.3f}, \"temporal_ms\": {:.3f}, "
+              "\"tensor_ms\": {:.3f}, \"icp_ms\": {:.3f}, \"total_ms\": {:.3f}}}",
+              f.t_ns, f.seq, static_cast<int>(f.source), f.quality.features_left, f.quality.features_right,
+              f.quality.stereo_matches, f.quality.temporal_matches, f.quality.ransac_inliers, f.quality.icp_iterations,
+              f.quality.icp_inliers, f.quality.icp_rms_m, f.quality.model_points, f.quality.detector_threshold,
+              f.times.rectify_ms, f.times.features_ms, f.times.stereo_ms, f.times.temporal_ms, f.times.tensor_ms,
+              f.times.icp_ms, f.times.total_ms);
+  }
+  os << "\n  ]\n}\n";
+}
+
+}  // namespace seavio::tools

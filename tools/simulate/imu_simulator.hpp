@@ -1,0 +1,43 @@
+#pragma once
+/// IMU measurements and ground truth from a trajectory: gyro = omega_B + b_g + n_g,
+/// accel = R_W_B^T (a_W - g_W) + b_a + n_a, g_W = (0, 0, -9.81); white noise sigma =
+/// density * sqrt(rate), bias random walk sigma = rw * sqrt(dt) (EuRoC / Kalibr convention).
+#include <cstdint>
+#include <random>
+#include <vector>
+
+#include "core/common/types.hpp"
+#include "core/imu/imu_noise.hpp"
+#include "tools/simulate/trajectory.hpp"
+
+namespace seavio::simulate {
+
+/// First timestamp of every simulated stream [ns], so all stamps are positive.
+inline constexpr int64_t kStartTimeNs = 1000000000;
+
+/// Timestamp [ns] of sample k at `rate_hz`.
+int64_t sampleTimeNs(int64_t k, double rate_hz);
+/// Trajectory time [s] of a timestamp.
+inline double trajectoryTime(int64_t t_ns) { return static_cast<double>(t_ns - kStartTimeNs) * 1e-9; }
+
+struct ImuSequence {
+  std::vector<ImuSample> samples;
+  std::vector<NavState> ground_truth;  ///< same timestamps as `samples`, biases included
+};
+
+class ImuSimulator {
+ public:
+  /// @param initial_gyro_bias_sigma [rad/s], @param initial_accel_bias_sigma [m/s^2]
+  ImuSimulator(const imu::ImuNoise& noise, double initial_gyro_bias_sigma, double initial_accel_bias_sigma);
+  /// Samples from t = 0 to `end_s` inclusive at noise.rate_hz. `noiseless` keeps biases at zero
+  /// and adds no noise (used to check consistency).
+  ImuSequence simulate(const Trajectory& trajectory, double end_s, std::mt19937& rng, bool noiseless = false) const;
+  /// The noiseless measurement at one state.
+  static ImuSample idealSample(const BodyState& s, int64_t t_ns);
+
+ private:
+  imu::ImuNoise noise_;
+  double bg0_, ba0_;
+};
+
+}  // namespace seavio::simulate

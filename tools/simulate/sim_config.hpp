@@ -1,0 +1,110 @@
+#pragma once
+/// Parameters of a synthetic survey (`seavio simulate`, issue 3): rig, trajectory, seafloor,
+/// lights, marine snow and IMU. Plain structs with defaults; presets fill them in.
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/imu/imu_noise.hpp"
+
+namespace seavio::simulate {
+
+/// Stereo rig looking down (camera z along -z of the body), paper section IV.
+struct RigConfig {
+  int width = 640, height = 480;  ///< [px]
+  double hfov_deg = 60.0;         ///< horizontal field of view of camera 0 [deg]
+  double baseline_m = 0.32;       ///< distance between the optical centres [m]
+  /// Forward tilt of the whole rig about body y [deg]; 0 = straight down, > 0 looks ahead.
+  double tilt_deg = 0.0;
+  /// Rotation of camera 1 relative to camera 0 [deg], so rectification is really needed.
+  double relative_rotation_deg = 0.5;
+  /// Radial-tangential k1 k2 p1 p2 of each camera.
+  std::array<double, 4> distortion0{-0.05, 0.01, 4e-4, -3e-4};
+  std::array<double, 4> distortion1{-0.048, 0.0095, -2.5e-4, 3.5e-4};
+  double focal_ratio1 = 1.003;                        ///< f(cam1) / f(cam0), real rigs differ
+  Eigen::Vector2d principal_offset0_px{2.5, -1.5};    ///< (cx, cy) - image centre, camera 0 [px]
+  Eigen::Vector2d principal_offset1_px{-3.0, 2.0};    ///< same for camera 1 [px]
+  /// Midpoint of the two optical centres in the body (IMU) frame [m]: a few cm lever arm.
+  Eigen::Vector3d lever_arm_m{0.06, 0.0, -0.08};
+};
+
+/// Survey path: lawnmower legs along W x joined by 180 deg turns (two 90 deg yaw pulses
+/// with a straight crossing between them), starting from rest.
+struct TrajectoryConfig {
+  double speed_m_s = 1.5;          ///< cruise speed [m/s]
+  double altitude_m = 4.0;         ///< height above the seafloor relief [m]
+  bool follow_altitude = true;     ///< false: constant depth at altitude above the start point
+  int legs = 5;                    ///< lanes of the lawnmower; the path bounces back afterwards
+  double leg_length_m = 400.0;     ///< [m]
+  double leg_spacing_m = 62.5;     ///< lane spacing [m]
+  double max_yaw_rate_rad_s = 0.1;     ///< rate limit of the turns [rad/s]
+  double max_yaw_accel_rad_s2 = 0.02;  ///< [rad/s^2]
+  bool unlimited_turn_rate = false;    ///< the paper's near-instantaneous turns
+  double still_s = 2.0;            ///< at rest at the start (accelerometer attitude init) [s]
+  double accel_s = 4.0;            ///< smooth speed ramp from rest to cruise [s]
+  double roll_amplitude_deg = 1.0, roll_period_s = 7.0;    ///< sway, faded in with speed
+  double pitch_amplitude_deg = 0.7, pitch_period_s = 11.0;
+};
+
+/// Procedural seafloor, deterministic in (x, y, seed).
+struct SeafloorConfig {
+  double relief_amplitude_m = 0.4;   ///< large-scale undulation (followed by the vehicle) [m]
+  double relief_wavelength_m = 60.0; ///< [m]
+  double ripple_amplitude_m = 0.008; ///< sand ripples [m]
+  double ripple_wavelength_m = 0.09; ///< [m]
+  double rock_probability = 0.25;    ///< per 2 m x 2 m cell
+  double pebble_probability = 0.6;   ///< per 0.2 m x 0.2 m cell
+  double tile_size_m = 4.0;          ///< cache tile edge [m]
+  double resolution_m = 0.0075;      ///< cache sample spacing [m], about a pixel's footprint at 4 m
+  int cache_tiles = 24;              ///< LRU capacity (each tile ~2.3 MB at the defaults)
+};
+
+/// Vehicle-mounted lights and water optics.
+struct LightingConfig {
+  /// Light positions in the body frame [m].
+  std::vector<Eigen::Vector3d> lights_B{{0.7, 0.45, -0.15}, {0.7, -0.45, -0.15},
+                                        {-0.5, 0.45, -0.15}, {-0.5, -0.45, -0.15}};
+  double attenuation_per_m = 0.12;   ///< water absorption c in exp(-c r) [1/m]
+  double backscatter = 0.25;         ///< veiling light at infinite range, fraction of target_grey
+  double vignetting = 0.6;           ///< 0 = none, 1 = full cos^4
+  double target_grey = 120.0;        ///< mean grey of a flat floor at the nominal altitude [DN]
+  double sensor_noise_dn = 1.5;      ///< Gaussian read noise [DN]
+};
+
+/// Marine snow: particles fixed in W cells, drifting slowly and wrapping inside their cell.
+struct SnowConfig {
+  bool enabled = false;
+  double density_per_m3 = 55.0;      ///< ~1200 visible per image at 4 m altitude
+  double cell_m = 1.0;
+  double radius_min_m = 0.0015, radius_max_m = 0.005;
+  double drift_m_s = 0.02;
+  double min_range_m = 0.3;          ///< particles closer than this are out of focus: skipped
+};
+
+struct SimConfig {
+  std::string preset = "custom";
+  uint32_t seed = 1;
+  int frames = 3000;
+  double frame_rate_hz = 1.0;
+  imu::ImuNoise imu;                        ///< densities and rate_hz of the IMU
+  double initial_gyro_bias_sigma = 2e-3;    ///< [rad/s]
+  double initial_accel_bias_sigma = 2e-2;   ///< [m/s^2]
+  RigConfig rig;
+  TrajectoryConfig trajectory;
+  SeafloorConfig seafloor;
+  LightingConfig lighting;
+  SnowConfig snow;
+};
+
+/// Names accepted by presetConfig.
+std::vector<std::string> presetNames();
+/// "paper-plain", "paper-snow" (section IV: 3000 frames, 5 legs over 400 x 250 m),
+/// "short-plain", "short-snow" (~77 m, 10 Hz, one turn). Throws std::invalid_argument.
+SimConfig presetConfig(const std::string& name);
+/// Throws std::invalid_argument naming the first bad parameter (option-style key).
+void validate(const SimConfig& config);
+
+}  // namespace seavio::simulate

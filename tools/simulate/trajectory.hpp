@@ -1,0 +1,57 @@
+#pragma once
+/// Smooth (C2) survey trajectory of the body B in W with analytic velocity, acceleration and
+/// body rate, so the simulated IMU integrates back to the ground truth (issue 3).
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "tools/simulate/seafloor.hpp"
+#include "tools/simulate/sim_config.hpp"
+
+namespace seavio::simulate {
+
+/// Kinematic state of the body at one time.
+struct BodyState {
+  double t_s = 0;                                        ///< since the start [s]
+  Eigen::Vector3d p_W = Eigen::Vector3d::Zero();         ///< position of B in W [m]
+  Eigen::Vector3d v_W = Eigen::Vector3d::Zero();         ///< [m/s]
+  Eigen::Vector3d a_W = Eigen::Vector3d::Zero();         ///< [m/s^2]
+  Eigen::Matrix3d R_W_B = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d omega_B = Eigen::Vector3d::Zero();     ///< body rate in B [rad/s]
+  Eigen::Isometry3d T_W_B() const;
+};
+
+/// Lawnmower legs along +-x of W, 180 deg turns made of two 90 deg yaw pulses (smooth
+/// quintic ramps of the yaw rate, so acceleration is continuous), a straight crossing between
+/// them, speed ramp from rest, roll/pitch sway faded in with speed, and altitude following of
+/// the analytic relief (or constant depth). Heading, speed and attitude are closed form; the
+/// horizontal position is their integral, tabulated with 5-point Gauss-Legendre quadrature.
+class Trajectory {
+ public:
+  /// Plans the path until `duration_s`.
+  Trajectory(const TrajectoryConfig& config, const ReliefField& relief, double duration_s);
+  BodyState at(double t_s) const;
+  double duration() const { return duration_s_; }
+  /// Total horizontal path length until the end [m].
+  double length() const;
+
+ private:
+  struct YawPulse {
+    double t0, ramp, plateau, rate, sign;  ///< [s], [s], [s], [rad/s], +-1
+  };
+  void speed(double t, double* s, double* ds) const;
+  void yaw(double t, double* psi, double* rate) const;
+  Eigen::Vector2d horizontalVelocity(double t) const;
+  Eigen::Vector2d integrate(double a, double b) const;
+
+  TrajectoryConfig config_;
+  const ReliefField& relief_;
+  double duration_s_;
+  double z_const_ = 0;
+  std::vector<YawPulse> pulses_;
+  double knot_dt_ = 0.25;
+  std::vector<Eigen::Vector2d> knots_;  ///< horizontal position at k * knot_dt_
+};
+
+}  // namespace seavio::simulate
