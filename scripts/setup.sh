@@ -10,7 +10,7 @@ PACKAGES=(
   libsystemd-dev libyaml-cpp-dev libspdlog-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev libreaderwriterqueue-dev
   libcamera-dev
-  can-utils iproute2 valgrind clang libclang-rt-14-dev
+  can-utils iproute2 valgrind clang libclang-rt-14-dev systemd
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -1,6 +1,7 @@
 // `seavio simulate`: render a synthetic stereo-inertial survey in the EuRoC/ASL layout (issue 3).
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <memory>
@@ -22,7 +23,6 @@ struct SimulateOptions {
   int frames = 0;
   int64_t seed = -1;
   double imu_rate = 0, frame_rate = 0, altitude = 0, speed = 0, tilt_deg = 0;
-  bool tilt_set = false;
   bool snow = false, unlimited_turn_rate = false, constant_depth = false, no_sway = false;
 };
 
@@ -49,7 +49,7 @@ void runSimulate(const SimulateOptions& o, CLI::App& cmd) {
   simulate::ProgressFn progress;
   if (tty) {
     progress = [start](std::size_t done, std::size_t total) {
-      const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      const double s = std::max(1e-3, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
       const int width = 40;
       const int filled = static_cast<int>(width * done / total);
       std::fprintf(stderr, "\r[%.*s%*s] %zu/%zu frames, %.1f pairs/s, ETA %.0f s ", filled,

@@ -122,4 +122,24 @@ std::optional<Eigen::Matrix3d> attitudeFromAccelerometer(std::span<const ImuSamp
   return R;
 }
 
+std::optional<Eigen::Vector3d> gyroBiasAtRest(std::span<const ImuSample> samples, double min_duration_s,
+                                              double max_accel_deviation, double max_rate_rad_s) {
+  if (samples.size() < 2 ||
+      1e-9 * static_cast<double>(samples.back().t_ns - samples.front().t_ns) < min_duration_s)
+    return std::nullopt;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const ImuSample& s : samples) {
+    if (!s.gyro_rad_s.allFinite() || !s.accel_m_s2.allFinite()) return std::nullopt;
+    if (std::abs(s.accel_m_s2.norm() - kGravity_m_s2) > max_accel_deviation * kGravity_m_s2 * 3) return std::nullopt;
+    if (s.gyro_rad_s.norm() > max_rate_rad_s) return std::nullopt;
+    mean += s.gyro_rad_s;
+  }
+  mean /= static_cast<double>(samples.size());
+  Eigen::Vector3d accel_mean = Eigen::Vector3d::Zero();
+  for (const ImuSample& s : samples) accel_mean += s.accel_m_s2;
+  accel_mean /= static_cast<double>(samples.size());
+  if (std::abs(accel_mean.norm() - kGravity_m_s2) > max_accel_deviation * kGravity_m_s2) return std::nullopt;
+  return mean;
+}
+
 }  // namespace seavio::imu

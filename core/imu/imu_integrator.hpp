@@ -39,4 +39,11 @@ ImuPropagation propagate(const NavState& start, const Matrix9d& start_covariance
 std::optional<Eigen::Matrix3d> attitudeFromAccelerometer(std::span<const ImuSample> samples,
                                                          double max_g_deviation = 0.05);
 
+/// Gyro bias from samples taken while the vehicle holds still (the mean rate; Earth's
+/// rotation, 7.3e-5 rad/s, is below the bias scale of the IMUs this serves). nullopt unless the
+/// samples span at least `min_duration_s` and look still: accelerometer norm within
+/// `max_accel_deviation` of 1 g and no rate beyond `max_rate_rad_s`.
+std::optional<Eigen::Vector3d> gyroBiasAtRest(std::span<const ImuSample> samples, double min_duration_s = 0.3,
+                                              double max_accel_deviation = 0.01, double max_rate_rad_s = 0.02);
+
 }  // namespace seavio::imu

@@ -35,10 +35,12 @@ struct MotionRefinementResult {
   double rms_px = 0;
 };
 
-/// Gauss-Newton on T_prev_curr over the `inliers` of `matches`: symmetric transfer error
-/// (points triangulated in one pair, reprojected into both images of the other) plus the
-/// rotation prior. Points are triangulated once; with both directions the first-order effect
-/// of their depth noise cancels.
+/// Levenberg-Marquardt on T_prev_curr over the `inliers` of `matches`: four-view bundle
+/// adjustment (each point, triangulated in the previous pair, refined with the motion and
+/// reprojected into all four images; Huber kernel of `huber_px`) plus the rotation prior.
+/// Holding the triangulated points fixed (a transfer error) would treat their noisy depth as
+/// exact and shorten the translation over flat floors; see motion_refinement.cpp.
+/// `covariance` is that of the motion with the points marginalised out.
 MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<const geometry::QuadMatch> matches,
                                     std::span<const uint32_t> inliers, const Eigen::Isometry3d& T_prev_curr_init,
                                     const RotationPrior& prior, const MotionRefinementParams& params);

@@ -56,6 +56,14 @@ void Odometry::initialise(const FrameFeatures& frame, std::span<const ImuSample>
   for (const ImuSample& s : imu)
     if (s.t_ns <= frame.t_ns && s.t_ns > frame.t_ns - 1'000'000'000) recent.push_back(s);
   if (const auto R = imu::attitudeFromAccelerometer(recent, 0.2)) state_.T_W_B.linear() = *R;
+  // A vehicle that starts still hands us its gyro bias: without it the rotation prior would
+  // carry the bias straight into the attitude.
+  if (const auto bg = imu::gyroBiasAtRest(recent)) {
+    state_.gyro_bias_rad_s = *bg;
+    gyro_bias_sigma_rad_s_ = params_.gyro_bias_sigma_at_rest_rad_s;
+  } else {
+    gyro_bias_sigma_rad_s_ = params_.gyro_bias_sigma_unknown_rad_s;
+  }
   state_covariance_ = imu::Matrix9d::Zero();
   state_covariance_.block<3, 3>(3, 3) =
       Eigen::Matrix3d::Identity() * params_.initial_velocity_sigma_m_s * params_.initial_velocity_sigma_m_s;
@@ -124,7 +132,11 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     pred_cov = Matrix6d::Zero();
     pred_cov.diagonal() << 4e-4, 4e-4, 4e-4, 0.01, 0.01, 0.01;
   }
-  // Drop samples no longer needed (keep one before the frame for interpolation).
+  // This interval's samples (for the still-start bias), then drop what is no longer needed
+  // (keeping one sample before the frame for interpolation).
+  std::vector<ImuSample> interval;
+  for (const ImuSample& s : imu_buffer_)
+    if (s.t_ns > state_.t_ns && s.t_ns <= frame.t_ns) interval.push_back(s);
   while (imu_buffer_.size() > 2 && imu_buffer_[1].t_ns <= frame.t_ns) imu_buffer_.erase(imu_buffer_.begin());
 
   // --- III-C: inter-frame matching pruned by the prediction.
@@ -158,7 +170,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     prior.R_prev_curr = T_prev_curr_pred.rotation();
     // Relative rotation noise only: the absolute attitude uncertainty carried in the start
     // covariance passes through the short propagation unchanged (F ~ I) and is removed.
-    prior.covariance = pred_cov.topLeftCorner<3, 3>() - start_cov.topLeftCorner<3, 3>();
+    prior.covariance = pred_cov.topLeftCorner<3, 3>() - start_cov.topLeftCorner<3, 3>() +
+                       Eigen::Matrix3d::Identity() * std::pow(gyro_bias_sigma_rad_s_ * dt_s, 2);
     const MotionRefinementResult refined =
         refineMotion(rig, quads, ransac.inliers, T_prev_curr, prior, params_.refinement);
     if (refined.ok) {
@@ -221,12 +234,14 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     // and the visual pose feeds the next prediction).
     Eigen::Vector3d v = pred.state.v_W;
     if (dt_s > 1e-6) v += (T_W_B.translation() - pred.state.T_W_B.translation()) / dt_s;
-    if (have_imu && dt_s > 1e-6) {
-      // Gyro bias from the rotation residual between IMU and vision, lightly filtered.
-      const Eigen::Matrix3d dR_imu = state_.T_W_B.rotation().transpose() * pred.state.T_W_B.rotation();
-      const Eigen::Matrix3d dR_vis = state_.T_W_B.rotation().transpose() * T_W_B.rotation();
-      const Eigen::Vector3d residual = se3::logSO3(dR_imu.transpose() * dR_vis) / dt_s;
-      state_.gyro_bias_rad_s -= params_.gyro_bias_gain * residual;
+    if (have_imu && dt_s > 1e-6 && ransac.status == geometry::RansacStatus::kOk) {
+      // Gyro bias from the residual between the IMU rotation and the vision-only (RANSAC)
+      // rotation, lightly filtered; the prior-refined rotation would only echo the IMU.
+      const Eigen::Vector3d residual =
+          se3::logSO3(T_prev_curr_pred.rotation().transpose() * ransac.T_prev_curr.rotation()) / dt_s;
+      const Eigen::Vector3d residual_B = T_B_R0.rotation() * residual;
+      state_.gyro_bias_rad_s -= params_.gyro_bias_gain * residual_B;
+      gyro_bias_sigma_rad_s_ = std::max(params_.gyro_bias_sigma_at_rest_rad_s, gyro_bias_sigma_rad_s_ * 0.99);
     }
     state_.T_W_B = T_W_B;
     state_.v_W = v;
@@ -246,6 +261,22 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     T_W_B = state_.T_W_B;
     T_W_R0 = T_W_B * T_B_R0;
     r.source = PoseSource::kImuOnly;
+  }
+  // While the vehicle still holds still after start-up, every interval refines the gyro bias.
+  if (still_start_ && have_imu) {
+    const Eigen::Isometry3d motion = prev.T_W_R0.inverse() * T_W_R0;
+    const bool vision_still = r.source == PoseSource::kVision && motion.translation().norm() < 2e-3 &&
+                              se3::angle(motion) < 1e-3;
+    if (vision_still && imu::gyroBiasAtRest(interval, 0.5 * dt_s)) {
+      for (const ImuSample& s : interval) still_gyro_sum_ += s.gyro_rad_s;
+      still_samples_ += static_cast<int>(interval.size());
+      state_.gyro_bias_rad_s = still_gyro_sum_ / still_samples_;
+      const double still_s = still_samples_ / std::max(imu_noise_.rate_hz, 1.0);
+      gyro_bias_sigma_rad_s_ = std::max(params_.gyro_bias_sigma_at_rest_rad_s,
+                                        imu_noise_.gyroscope_noise_density / std::sqrt(std::max(still_s, 1e-3)));
+    } else {
+      still_start_ = false;
+    }
   }
   state_.t_ns = frame.t_ns;
   if (!finitePose(state_.T_W_B) || !state_.v_W.allFinite()) {

@@ -29,7 +29,7 @@ enum class FinalStage { kIcp, kTensor };
 
 struct OdometryParams {
   Mode mode = Mode::kLocal;
-  FinalStage final_stage = FinalStage::kIcp;
+  FinalStage final_stage = FinalStage::kTensor;
   IlluminationParams illumination;
   features::FeatureParams features;
   matching::StereoMatchParams stereo;
@@ -43,7 +43,9 @@ struct OdometryParams {
   double initial_velocity_sigma_m_s = 1.0;   ///< unknown start velocity [m/s]
   double velocity_sigma_m_s = 0.05;          ///< after a visual fix [m/s]
   double attitude_sigma_rad = 0.005;         ///< after a visual fix [rad]
-  double gyro_bias_gain = 0.05;              ///< fraction of the visual gyro-bias residual applied per frame
+  double gyro_bias_gain = 0.01;              ///< fraction of the visual gyro-bias residual applied per frame
+  double gyro_bias_sigma_at_rest_rad_s = 3e-4;  ///< bias uncertainty after a still start [rad/s]
+  double gyro_bias_sigma_unknown_rad_s = 3e-3;  ///< bias uncertainty without one [rad/s]
   double max_speed_m_s = 10.0;               ///< a visual fix faster than this is rejected as a jump
   uint32_t seed = 1;                         ///< RANSAC random stream
 };
@@ -84,6 +86,10 @@ class Odometry {
   bool initialised_ = false;
   NavState state_;
   imu::Matrix9d state_covariance_ = imu::Matrix9d::Zero();
+  double gyro_bias_sigma_rad_s_ = 0;
+  bool still_start_ = true;                 ///< no motion seen yet: the gyro reads its bias
+  Eigen::Vector3d still_gyro_sum_ = Eigen::Vector3d::Zero();
+  int still_samples_ = 0;
   Eigen::Matrix<double, 6, 6> pose_covariance_ = Eigen::Matrix<double, 6, 6>::Zero();
   std::optional<PreviousFrame> previous_;
   Eigen::Isometry3d last_motion_ = Eigen::Isometry3d::Identity();  ///< for IMU-less prediction

@@ -77,7 +77,7 @@ struct LightingConfig {
 /// Marine snow: particles fixed in W cells, drifting slowly and wrapping inside their cell.
 struct SnowConfig {
   bool enabled = false;
-  double density_per_m3 = 55.0;      ///< ~1200 visible per image at 4 m altitude
+  double density_per_m3 = 60.0;      ///< ~1200 visible per image at 4 m altitude
   double cell_m = 1.0;
   double radius_min_m = 0.0015, radius_max_m = 0.005;
   double drift_m_s = 0.02;

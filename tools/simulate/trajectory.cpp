@@ -49,7 +49,9 @@ Trajectory::Trajectory(const TrajectoryConfig& c, const ReliefField& relief, dou
   // fits in the spacing, since the ramps widen the turn.
   const double accel = c.unlimited_turn_rate ? 10.0 : c.max_yaw_accel_rad_s2;
   const double max_rate = c.unlimited_turn_rate ? 1.0 : c.max_yaw_rate_rad_s;
-  double rate = std::min(max_rate, 2 * V / c.leg_spacing_m), ramp = 0, plateau = 0, fwd = 0, lat = 0;
+  // Unlimited (the paper's): pivot at 1 rad/s, cross straight, pivot again.
+  double rate = c.unlimited_turn_rate ? max_rate : std::min(max_rate, 2 * V / c.leg_spacing_m);
+  double ramp = 0, plateau = 0, fwd = 0, lat = 0;
   for (int attempt = 0; attempt < 200; ++attempt) {
     ramp = rate / accel;
     plateau = kPi / 2 / rate - ramp;

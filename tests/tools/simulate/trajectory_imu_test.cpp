@@ -81,6 +81,23 @@ TEST_F(TrajectoryImuTest, MakesOneHalfTurnBetweenTwoLegs) {
   EXPECT_NEAR(lateral, config.trajectory.leg_spacing_m, 0.02 * config.trajectory.leg_spacing_m);
 }
 
+TEST_F(TrajectoryImuTest, UnlimitedTurnRateTurnsFastAndStaysSmooth) {
+  TrajectoryConfig fast = config.trajectory;
+  fast.unlimited_turn_rate = true;
+  const Trajectory t(fast, relief, 70.0);
+  double peak = 0, peak_limited = 0;
+  for (double s = 0; s < 70; s += 0.05) {
+    peak = std::max(peak, std::abs(t.at(s).omega_B.z()));
+    peak_limited = std::max(peak_limited, std::abs(traj.at(s).omega_B.z()));
+  }
+  EXPECT_GT(peak, 0.9);
+  EXPECT_LE(peak_limited, config.trajectory.max_yaw_rate_rad_s + 0.02);  // sway adds a little
+  for (double s = 38.0; s < 60.0; s += 0.37) {
+    const BodyState a = t.at(s - 1e-4), b = t.at(s + 1e-4), m = t.at(s);
+    EXPECT_LT(((b.v_W - a.v_W) / 2e-4 - m.a_W).norm(), 1e-4) << s;
+  }
+}
+
 TEST_F(TrajectoryImuTest, NoiselessImuIntegratesBackToGroundTruth) {
   std::mt19937 rng(3);
   const ImuSimulator sim(config.imu, 0.0, 0.0);
