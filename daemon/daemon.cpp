@@ -1,0 +1,433 @@
+#include "daemon/daemon.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+#include <stdexcept>
+
+#include <opencv2/imgproc.hpp>
+
+#include "daemon/timestamp_monitor.hpp"
+#include "drivers/lcm/lcm_convert.hpp"
+
+namespace seavio::daemon {
+
+using namespace std::chrono_literals;
+
+namespace {
+constexpr auto kPoll = 50ms;  // longest single wait anywhere in the pipeline
+
+double msBetween(int64_t a_ns, int64_t b_ns) { return static_cast<double>(b_ns - a_ns) * 1e-6; }
+
+void joinIf(std::thread& t) {
+  if (t.joinable()) t.join();
+}
+}  // namespace
+
+int64_t monotonicNowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+Daemon::Daemon(DaemonConfig config, std::unique_ptr<drivers::CameraSource> camera,
+               std::unique_ptr<drivers::ImuSource> imu, std::unique_ptr<FrameProcessor> processor,
+               std::unique_ptr<Notifier> notifier)
+    : cfg_(std::move(config)),
+      camera_(std::move(camera)),
+      imu_src_(std::move(imu)),
+      processor_(std::move(processor)),
+      notifier_(notifier ? std::move(notifier) : std::make_unique<NullNotifier>()) {
+  imu_pending_.reserve(cfg_.rings.imu_samples);
+  imu_batch_.reserve(cfg_.rings.imu_samples);
+}
+
+Daemon::~Daemon() { stop(); }
+
+bool Daemon::start() {
+  if (running_) return true;
+  if (!camera_ || !processor_) {
+    error_ = "daemon needs a camera source and a frame processor";
+    return false;
+  }
+  bus_ = std::make_unique<drivers::LcmBus>(cfg_.lcm.url);
+  if (!bus_->good()) {
+    error_ = "LCM provider '" + cfg_.lcm.url + "' cannot be opened (multicast route?)";
+    return false;
+  }
+  frames_ = std::make_unique<FrameRing<FrameItem>>(cfg_.rings.camera_frames);
+  imu_ = std::make_unique<SpscRing<ImuSample>>(cfg_.rings.imu_samples);
+  poses_ = std::make_unique<SpscRing<PoseItem>>(cfg_.rings.poses);
+  if (!camera_->start()) {
+    error_ = "camera " + camera_->name() + ": " + camera_->lastError();
+    return false;
+  }
+  if (imu_src_ && !imu_src_->start()) {
+    error_ = "IMU " + imu_src_->name() + ": " + imu_src_->lastError();
+    camera_->stop();
+    return false;
+  }
+  pool_ = std::make_unique<WorkerPool>(static_cast<std::size_t>(cfg_.worker_threads));
+  start_ns_ = monotonicNowNs();
+  imu_ended_ = imu_src_ == nullptr;
+  stop_acq_ = false;
+  stop_pipeline_ = false;
+  running_ = true;
+  camera_thread_ = std::thread([this] { cameraLoop(); });
+  if (imu_src_) imu_thread_ = std::thread([this] { imuLoop(); });
+  estimator_thread_ = std::thread([this] { estimatorLoop(); });
+  publisher_thread_ = std::thread([this] { publisherLoop(); });
+  status_thread_ = std::thread([this] { statusLoop(); });
+  return true;
+}
+
+void Daemon::stop() {
+  if (!running_.exchange(false)) return;
+  stop_acq_ = true;
+  joinIf(camera_thread_);
+  joinIf(imu_thread_);
+  stop_pipeline_ = true;
+  joinIf(estimator_thread_);
+  health_.frames_dropped_shutdown += frames_->drain();
+  joinIf(publisher_thread_);
+  joinIf(status_thread_);
+  pool_->stop();
+  camera_->stop();
+  if (imu_src_) imu_src_->stop();
+  notifier_->notify("STOPPING=1");
+}
+
+uint64_t Daemon::accountedFrames() const {
+  return health_.frames_processed + framesDroppedInRing() + health_.frames_dropped_shutdown +
+         health_.processing_failures;
+}
+
+void Daemon::cameraLoop() {
+  TimestampMonitor stamps(static_cast<int64_t>(cfg_.frame_gap_ms) * 1'000'000);
+  bool have_seq = false;
+  uint64_t last_seq = 0;
+  while (!stop_acq_) {
+    FrameItem item;
+    const drivers::ReadStatus st = camera_->read(item.frame, kPoll);
+    if (st == drivers::ReadStatus::kTimeout) continue;
+    if (st == drivers::ReadStatus::kEnd) break;
+    if (st == drivers::ReadStatus::kError) {
+      health_.camera_source_errors++;
+      std::this_thread::sleep_for(kPoll);  // the driver reconnects; do not spin
+      continue;
+    }
+    item.recv_ns = monotonicNowNs();
+    // Frames lost before reaching us (camera, network, UDP buffer) show as sequence gaps.
+    if (have_seq && item.frame.seq > last_seq + 1) health_.frames_missing_upstream += item.frame.seq - last_seq - 1;
+    have_seq = true;
+    last_seq = item.frame.seq;
+    item.frame.t_ns += cfg_.camera_imu_time_offset_ns;
+    const StampCheck c = stamps.check(item.frame.t_ns);
+    if (c == StampCheck::kDuplicate) health_.duplicates++;
+    if (c == StampCheck::kOutOfOrder) health_.out_of_order++;
+    if (!accepted(c)) {
+      health_.frames_rejected_stamp++;
+      continue;
+    }
+    health_.frames_in++;
+    health_.last_frame_recv_ns = item.recv_ns;
+    // Single producer: once there is room, only we can fill it again.
+    while (cfg_.backpressure && !stop_acq_ && frames_->sizeApprox() >= frames_->capacity()) {
+      std::this_thread::sleep_for(1ms);
+    }
+    frames_->pushDroppingOldestIfFull(std::move(item));
+  }
+  camera_ended_ = !stop_acq_;
+}
+
+void Daemon::imuLoop() {
+  TimestampMonitor stamps(static_cast<int64_t>(cfg_.imu_gap_ms) * 1'000'000);
+  while (!stop_acq_) {
+    ImuSample s;
+    const drivers::ReadStatus st = imu_src_->read(s, kPoll);
+    if (st == drivers::ReadStatus::kTimeout) continue;
+    if (st == drivers::ReadStatus::kEnd) break;
+    if (st == drivers::ReadStatus::kError) {
+      health_.imu_source_errors++;
+      std::this_thread::sleep_for(kPoll);
+      continue;
+    }
+    const StampCheck c = stamps.check(s.t_ns);
+    if (c == StampCheck::kDuplicate) health_.duplicates++;
+    if (c == StampCheck::kOutOfOrder) health_.out_of_order++;
+    if (c == StampCheck::kGap) health_.imu_gaps++;
+    if (!accepted(c)) continue;
+    if (!s.gyro_rad_s.allFinite() || !s.accel_m_s2.allFinite()) continue;
+    health_.imu_samples++;
+    while (cfg_.backpressure && !stop_acq_ && imu_->sizeApprox() >= imu_->capacity()) {
+      std::this_thread::sleep_for(1ms);
+    }
+    imu_->pushOrCountOverflow(std::move(s));
+  }
+  imu_ended_ = true;
+}
+
+void Daemon::collectImu(int64_t up_to_ns, bool wait) {
+  const int64_t deadline = monotonicNowNs() + static_cast<int64_t>(cfg_.imu_wait_ms) * 1'000'000;
+  ImuSample s;
+  for (;;) {
+    while (imu_->tryPop(s)) {
+      last_imu_ns_ = s.t_ns;
+      imu_pending_.push_back(s);
+    }
+    if (!wait || last_imu_ns_ > up_to_ns || stop_pipeline_ || imu_ended_) break;
+    const int64_t now = monotonicNowNs();
+    if (now >= deadline) break;
+    if (imu_->popWaitFor(s, std::chrono::nanoseconds(std::min<int64_t>(deadline - now, 5'000'000)))) {
+      last_imu_ns_ = s.t_ns;
+      imu_pending_.push_back(s);
+    }
+  }
+  // Same hand-over as `seavio run`: the last sample at or before the previous frame, every
+  // sample up to this frame, and the first one after it, so the odometry can interpolate
+  // at both frame times.
+  imu_batch_.clear();
+  if (imu_carry_) imu_batch_.push_back(*imu_carry_);
+  std::size_t keep = 0;
+  bool after_added = false;
+  for (std::size_t i = 0; i < imu_pending_.size(); ++i) {
+    if (imu_pending_[i].t_ns <= up_to_ns) {
+      imu_batch_.push_back(imu_pending_[i]);
+      imu_carry_ = imu_pending_[i];
+    } else {
+      if (!after_added) {
+        imu_batch_.push_back(imu_pending_[i]);
+        after_added = true;
+      }
+      imu_pending_[keep++] = imu_pending_[i];
+    }
+  }
+  imu_pending_.resize(keep);
+}
+
+void Daemon::prepare(StereoFrame& f) {
+  // Drivers may deliver colour or padded images; left and right are converted in
+  // parallel on the persistent pool (issue 6: no thread per frame).
+  auto fix = [](cv::Mat& img) {
+    if (img.type() == CV_8UC3) {
+      cv::Mat g;
+      cv::cvtColor(img, g, cv::COLOR_BGR2GRAY);
+      img = g;
+    } else if (!img.isContinuous()) {
+      img = img.clone();
+    }
+  };
+  const bool need = f.left.type() != CV_8UC1 || f.right.type() != CV_8UC1 ||
+                    !f.left.isContinuous() || !f.right.isContinuous();
+  if (!need) return;
+  auto fut = pool_->submit([&f, &fix] { fix(f.left); });
+  fix(f.right);
+  if (fut) {
+    fut->wait();  // bounded: one cvtColor
+    fut->get();
+  } else {
+    fix(f.left);
+  }
+}
+
+void Daemon::estimate(FrameItem& item) {
+  const int64_t t0 = monotonicNowNs();
+  health_.at(Stage::kQueue).record(msBetween(item.recv_ns, t0));
+  collectImu(item.frame.t_ns, true);
+  OdometryResult r;
+  try {
+    prepare(item.frame);
+    if (item.frame.left.empty() || item.frame.right.empty() ||
+        item.frame.left.size() != item.frame.right.size()) {
+      throw std::runtime_error("empty or mismatched stereo images");
+    }
+    r = processor_->process(item.frame, imu_batch_);
+  } catch (const std::exception&) {
+    health_.processing_failures++;
+    return;
+  }
+  const int64_t t1 = monotonicNowNs();
+  health_.at(Stage::kProcess).record(msBetween(t0, t1));
+  if (r.times.total_ms > 0) {
+    health_.at(Stage::kRectify).record(r.times.rectify_ms);
+    health_.at(Stage::kFeatures).record(r.times.features_ms);
+    health_.at(Stage::kStereo).record(r.times.stereo_ms);
+    health_.at(Stage::kTemporal).record(r.times.temporal_ms);
+    health_.at(Stage::kTensor).record(r.times.tensor_ms);
+    health_.at(Stage::kIcp).record(r.times.icp_ms);
+  }
+  health_.features_left = r.quality.features_left;
+  health_.features_right = r.quality.features_right;
+  health_.ransac_inliers = r.quality.ransac_inliers;
+  health_.icp_inliers = r.quality.icp_inliers;
+  if (r.source == PoseSource::kImuOnly) health_.imu_only_frames++;
+  health_.frames_processed++;
+  PoseItem p{std::move(r), item.recv_ns, t1};
+  if (!poses_->pushOrCountOverflow(std::move(p))) health_.poses_dropped++;
+}
+
+void Daemon::estimatorLoop() {
+  while (!stop_pipeline_) {
+    const bool ended = camera_ended_;
+    FrameItem item;
+    const bool got = cfg_.drain_to_newest ? frames_->popNewestWaitFor(item, kPoll)
+                                          : frames_->popWaitFor(item, kPoll);
+    if (!got) {
+      if (ended) break;
+      continue;
+    }
+    estimate(item);
+  }
+  estimator_done_ = true;
+}
+
+void Daemon::publishPose(PoseItem& p) {
+  const int64_t now = monotonicNowNs();
+  const seavio_lcm::pose_t msg = drivers::toPoseMsg(p.result, now);
+  if (!bus_->publish(cfg_.lcm.pose_channel, msg)) {
+    health_.publish_failures++;
+    return;
+  }
+  health_.poses_published++;
+  health_.last_pose_pub_ns = now;
+  health_.at(Stage::kPublish).record(msBetween(p.proc_end_ns, now));
+  health_.at(Stage::kEndToEnd).record(msBetween(p.recv_ns, now));
+  // Only meaningful when the source stamps on our monotonic clock (live drivers); replayed
+  // datasets carry their own epoch and are left out.
+  const int64_t age = now - p.result.t_ns;
+  if (age >= 0 && age < 10'000'000'000LL) {
+    health_.at(Stage::kCaptureToPublish).record(static_cast<double>(age) * 1e-6);
+  }
+  if (!ready_sent_.exchange(true)) notifier_->notify("READY=1\nSTATUS=first pose published");
+}
+
+void Daemon::publisherLoop() {
+  for (;;) {
+    const bool est_done = estimator_done_;
+    PoseItem p;
+    if (poses_->popWaitFor(p, kPoll)) {
+      publishPose(p);
+      continue;
+    }
+    if (est_done) break;
+  }
+  if (camera_ended_) finished_ = true;
+}
+
+seavio_lcm::status_t Daemon::statusMessage() const {
+  seavio_lcm::status_t m{};
+  m.version = seavio_lcm::status_t::VERSION;
+  const int64_t now = monotonicNowNs();
+  m.t_ns = now;
+  m.uptime_s = start_ns_ ? static_cast<double>(now - start_ns_) * 1e-9 : 0.0;
+  m.frame_rate_hz = frame_rate_hz_;
+  m.pose_rate_hz = pose_rate_hz_;
+  m.imu_rate_hz = imu_rate_hz_;
+  m.frames_in = static_cast<int64_t>(health_.frames_in.load());
+  m.frames_processed = static_cast<int64_t>(health_.frames_processed.load());
+  m.frames_dropped_camera_ring = static_cast<int64_t>(framesDroppedInRing());
+  m.frames_dropped_shutdown = static_cast<int64_t>(health_.frames_dropped_shutdown.load());
+  m.frames_missing_upstream = static_cast<int64_t>(health_.frames_missing_upstream.load());
+  m.imu_samples = static_cast<int64_t>(health_.imu_samples.load());
+  m.imu_overflow = static_cast<int64_t>(imuOverflow());
+  m.imu_gaps = static_cast<int64_t>(health_.imu_gaps.load());
+  m.out_of_order = static_cast<int64_t>(health_.out_of_order.load());
+  m.duplicates = static_cast<int64_t>(health_.duplicates.load());
+  m.processing_failures = static_cast<int64_t>(health_.processing_failures.load());
+  m.publish_failures = static_cast<int64_t>(health_.publish_failures.load());
+  m.imu_only_frames = static_cast<int64_t>(health_.imu_only_frames.load());
+  m.source_errors = static_cast<int64_t>(health_.camera_source_errors + health_.imu_source_errors);
+  m.num_stages = static_cast<int16_t>(Stage::kCount);
+  for (int i = 0; i < static_cast<int>(Stage::kCount); ++i) {
+    m.stage_names.emplace_back(kStageNames[i]);
+    m.p50_ms.push_back(health_.latency[i].percentileMs(0.5));
+    m.p99_ms.push_back(health_.latency[i].percentileMs(0.99));
+  }
+  m.features_left = health_.features_left;
+  m.features_right = health_.features_right;
+  m.ransac_inliers = health_.ransac_inliers;
+  m.icp_inliers = health_.icp_inliers;
+  return m;
+}
+
+std::string Daemon::shortStatus() const {
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "frames %llu in, %llu processed, %llu dropped; %.1f fps; e2e p50 %.1f ms p99 %.1f ms; "
+                "failures %llu",
+                static_cast<unsigned long long>(health_.frames_in.load()),
+                static_cast<unsigned long long>(health_.frames_processed.load()),
+                static_cast<unsigned long long>(framesDroppedInRing() + health_.frames_dropped_shutdown),
+                frame_rate_hz_.load(), health_.at(Stage::kEndToEnd).percentileMs(0.5),
+                health_.at(Stage::kEndToEnd).percentileMs(0.99),
+                static_cast<unsigned long long>(health_.processing_failures + health_.publish_failures));
+  return buf;
+}
+
+std::string Daemon::summary() const {
+  const seavio_lcm::status_t m = statusMessage();
+  std::ostringstream o;
+  o << "seaviod health after " << m.uptime_s << " s (processor " << processor_->name() << ")\n"
+    << "  frames in " << m.frames_in << ", processed " << m.frames_processed << ", dropped in ring "
+    << m.frames_dropped_camera_ring << ", dropped at shutdown " << m.frames_dropped_shutdown
+    << ", rejected stamps " << health_.frames_rejected_stamp << ", missing upstream (seq gaps) "
+    << health_.frames_missing_upstream << "\n"
+    << "  IMU samples " << m.imu_samples << ", overflow " << m.imu_overflow << ", gaps " << m.imu_gaps
+    << "; out-of-order " << m.out_of_order << ", duplicates " << m.duplicates << "\n"
+    << "  poses published " << health_.poses_published << ", dropped " << health_.poses_dropped
+    << ", IMU-only " << m.imu_only_frames << "\n"
+    << "  failures: processing " << m.processing_failures << ", publish " << m.publish_failures
+    << ", camera source " << health_.camera_source_errors << ", IMU source "
+    << health_.imu_source_errors << "\n"
+    << "  latency [ms]          count      p50      p99      max\n";
+  for (int i = 0; i < static_cast<int>(Stage::kCount); ++i) {
+    const LatencyHistogram& h = health_.latency[i];
+    if (h.count() == 0) continue;
+    char line[160];
+    std::snprintf(line, sizeof line, "  %-20s %7llu %8.2f %8.2f %8.2f\n",
+                  std::string(kStageNames[i]).c_str(), static_cast<unsigned long long>(h.count()),
+                  h.percentileMs(0.5), h.percentileMs(0.99), h.maxMs());
+    o << line;
+  }
+  return o.str();
+}
+
+void Daemon::statusLoop() {
+  const auto wd = notifier_->watchdogPeriod();
+  const int64_t wd_every_ns = wd.count() > 0 ? wd.count() * 1000 / 2 : 0;
+  const int64_t status_every_ns = static_cast<int64_t>(cfg_.status_period_ms) * 1'000'000;
+  const int64_t stall_ns = static_cast<int64_t>(cfg_.watchdog_stall_ms) * 1'000'000;
+  int64_t next_status = monotonicNowNs() + status_every_ns;
+  int64_t next_wd = monotonicNowNs();
+  uint64_t last_frames = 0, last_poses = 0, last_imu = 0;
+  int64_t last_t = monotonicNowNs();
+  while (!stop_pipeline_ && !finished_) {
+    std::this_thread::sleep_for(kPoll);
+    const int64_t now = monotonicNowNs();
+    if (wd_every_ns > 0 && now >= next_wd) {
+      next_wd = now + wd_every_ns;
+      // Fed only while frames arrive and poses leave: a stalled pipeline gets restarted.
+      const int64_t lf = health_.last_frame_recv_ns, lp = health_.last_pose_pub_ns;
+      if (lf > 0 && lp > 0 && now - lf < stall_ns && now - lp < stall_ns) {
+        notifier_->notify("WATCHDOG=1");
+      }
+    }
+    if (now >= next_status) {
+      next_status = now + status_every_ns;
+      const double dt = static_cast<double>(now - last_t) * 1e-9;
+      const uint64_t f = health_.frames_in, p = health_.poses_published, s = health_.imu_samples;
+      frame_rate_hz_ = static_cast<double>(f - last_frames) / dt;
+      pose_rate_hz_ = static_cast<double>(p - last_poses) / dt;
+      imu_rate_hz_ = static_cast<double>(s - last_imu) / dt;
+      last_frames = f;
+      last_poses = p;
+      last_imu = s;
+      last_t = now;
+      if (!bus_->publish(cfg_.lcm.status_channel, statusMessage())) health_.publish_failures++;
+      notifier_->notify("STATUS=" + shortStatus());
+    }
+  }
+}
+
+}  // namespace seavio::daemon

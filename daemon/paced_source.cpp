@@ -1,0 +1,16 @@
+#include "daemon/paced_source.hpp"
+
+#include "daemon/daemon.hpp"
+
+namespace seavio::daemon {
+
+int64_t pacedNowNs() { return monotonicNowNs(); }
+
+int64_t ReplayClock::dueNs(int64_t t_ns) {
+  std::lock_guard<std::mutex> lock(m_);
+  if (!anchor_) anchor_ = std::make_pair(t_ns, monotonicNowNs());
+  if (speed_ <= 0) return 0;
+  return anchor_->second + static_cast<int64_t>(static_cast<double>(t_ns - anchor_->first) / speed_);
+}
+
+}  // namespace seavio::daemon

@@ -1,0 +1,18 @@
+#include "daemon/timestamp_monitor.hpp"
+
+namespace seavio::daemon {
+
+StampCheck TimestampMonitor::check(int64_t t_ns) {
+  if (!have_) {
+    have_ = true;
+    last_ = t_ns;
+    return StampCheck::kFirst;
+  }
+  if (t_ns == last_) return StampCheck::kDuplicate;
+  if (t_ns < last_) return StampCheck::kOutOfOrder;
+  const int64_t dt = t_ns - last_;
+  last_ = t_ns;
+  return dt > max_gap_ns_ ? StampCheck::kGap : StampCheck::kOk;
+}
+
+}  // namespace seavio::daemon
