@@ -4,6 +4,7 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -12,6 +13,7 @@
 #include "core/eval/trajectory_metrics.hpp"
 #include "core/imu/imu_integrator.hpp"
 #include "core/odometry/odometry.hpp"
+#include "core/odometry/pnp_baseline.hpp"
 #include "drivers/config/odometry_config.hpp"
 #include "drivers/dataset/dataset.hpp"
 #include "drivers/dataset/tum_io.hpp"
@@ -30,6 +32,7 @@ struct RunOptions {
   std::string stats;
   int max_frames = 0;
   bool quiet = false;
+  bool print_config = false;
 };
 
 int64_t monotonicNowNs() {
@@ -55,7 +58,36 @@ std::vector<eval::TimedPose> runImuOnly(const drivers::Dataset& ds, std::size_t 
   return out;
 }
 
+/// The comparison baseline of issue 4: OpenCV SIFT, exhaustive matching, PnP-RANSAC, no IMU.
+std::vector<eval::TimedPose> runPnpBaseline(const drivers::Dataset& ds, std::size_t n,
+                                            odometry::OdometryParams params, RunStats& stats) {
+  std::string error;
+  auto rectifier = camera::StereoRectifier::create(ds.calibration, &error);
+  if (!rectifier) throw drivers::InputError(ds.root + ": calibration unusable: " + error);
+  params.features.type = features::DetectorType::kSift;
+  params.features.controller = features::defaultControllerParams(features::DetectorType::kSift, 500);
+  params.features.max_features = 500;
+  const odometry::Frontend frontend(std::move(*rectifier), params.features, params.stereo, params.illumination);
+  odometry::PnpBaselineParams bp;
+  bp.threshold = params.features.controller.initial_threshold;
+  odometry::PnpBaseline baseline(frontend, bp);
+  std::vector<eval::TimedPose> out;
+  for (std::size_t i = 0; i < n; ++i) {
+    const OdometryResult r = baseline.process(drivers::loadFrame(ds, i));
+    out.push_back({r.t_ns, r.T_W_B});
+    stats.add(r);
+  }
+  return out;
+}
+
 int run(const RunOptions& o) {
+  if (o.print_config) {
+    std::cout << "odometry:\n";
+    std::istringstream lines(config::describe(config::loadOdometryParamsFile(o.config)));
+    for (std::string line; std::getline(lines, line);) std::cout << "  " << line << "\n";
+    return 0;
+  }
+  if (o.dataset.empty()) throw drivers::InputError("run: --dataset is required");
   const drivers::Dataset ds =
       drivers::loadDataset(o.dataset, o.kalibr.empty() ? std::nullopt : std::optional<std::string>(o.kalibr));
   if (ds.frames.empty()) throw drivers::InputError(o.dataset + ": no stereo frames");
@@ -64,8 +96,8 @@ int run(const RunOptions& o) {
     params.mode = odometry::Mode::kLocal;
   } else if (o.mode == "global") {
     params.mode = odometry::Mode::kGlobal;
-  } else if (o.mode != "imu") {
-    throw drivers::InputError("--mode: expected local, global or imu, got '" + o.mode + "'");
+  } else if (o.mode != "imu" && o.mode != "baseline") {
+    throw drivers::InputError("--mode: expected local, global, imu or baseline, got '" + o.mode + "'");
   }
   const std::size_t n = o.max_frames > 0 ? std::min<std::size_t>(ds.frames.size(), static_cast<std::size_t>(o.max_frames))
                                          : ds.frames.size();
@@ -75,6 +107,9 @@ int run(const RunOptions& o) {
   RunStats stats;
   if (o.mode == "imu") {
     trajectory = runImuOnly(ds, n);
+  } else if (o.mode == "baseline") {
+    trajectory = runPnpBaseline(ds, n, params, stats);
+    stats.printTable(std::cout);
   } else {
     std::string error;
     auto rectifier = camera::StereoRectifier::create(ds.calibration, &error);
@@ -111,8 +146,9 @@ int run(const RunOptions& o) {
 const RegisterCommand kRegister("run", [](CLI::App& app) {
   auto opts = std::make_shared<RunOptions>();
   CLI::App* sub = app.add_subcommand("run", "Run the odometry over a dataset (EuRoC/ASL or KITTI) and write a TUM trajectory");
-  sub->add_option("--dataset", opts->dataset, "Dataset folder (EuRoC/ASL or KITTI odometry)")->required();
-  sub->add_option("--mode", opts->mode, "local | global | imu (dead reckoning only)");
+  sub->add_option("--dataset", opts->dataset, "Dataset folder (EuRoC/ASL or KITTI odometry); required");
+  sub->add_option("--mode", opts->mode, "local | global | imu (dead reckoning only) | baseline (SIFT + PnP, no IMU)");
+  sub->add_flag("--print-config", opts->print_config, "Print the effective odometry configuration as YAML and exit");
   sub->add_option("--config", opts->config, "Tuning YAML (default: built-in defaults)");
   sub->add_option("--calib", opts->kalibr, "Kalibr camchain-imucam.yaml overriding the dataset's calibration");
   sub->add_option("--out", opts->out, "Output TUM trajectory");

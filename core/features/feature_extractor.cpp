@@ -118,6 +118,8 @@ Features FeatureExtractor::extract(const cv::Mat& gray8, double threshold) const
       f.norm_type = cv::NORM_L2;
       auto sift = cv::SIFT::create(cap, 3, threshold);
       sift->detectAndCompute(gray8, cv::noArray(), f.keypoints, f.descriptors);
+      // Unit length like SURF's, so one descriptor-distance threshold serves both.
+      for (int i = 0; i < f.descriptors.rows; ++i) cv::normalize(f.descriptors.row(i), f.descriptors.row(i));
       break;
     }
     case DetectorType::kOrb: {

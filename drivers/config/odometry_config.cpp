@@ -108,7 +108,11 @@ class Parser {
 /// Writes the values as YAML (same traversal as the parser, so nothing can be forgotten).
 class Describer {
  public:
-  Describer() { out_ << YAML::BeginMap; }
+  Describer() {
+    out_.SetDoublePrecision(6);
+    out_.SetFloatPrecision(6);
+    out_ << YAML::BeginMap;
+  }
   template <typename T>
   void value(const char* key, T& v, double, double) {
     out_ << YAML::Key << key << YAML::Value << v;
