@@ -16,7 +16,7 @@ MODE=${2:-local}
 if [[ -z "$DATASET" ]]; then
   DATASET="$OUT/short-plain"
   if [[ ! -f "$DATASET/mav0/cam0/data.csv" ]]; then
-    "$SEAVIO" simulate --preset short-plain --seed 11 --out "$DATASET" --force
+    "$SEAVIO" simulate short-plain --seed 11 --out "$DATASET" --force
   fi
 fi
 "$SEAVIO" run --dataset "$DATASET" --mode "$MODE" --out "$OUT/trajectory.txt" --stats "$OUT/stats.json" --quiet
