@@ -9,12 +9,14 @@
 #include "drivers/dataset/tum_io.hpp"
 #include "tools/command_registry.hpp"
 #include "tools/eval_report.hpp"
+#include "tools/lcm_trajectory.hpp"
 
 namespace seavio::tools {
 namespace {
 
 struct EvalOptions {
   std::string gt, est, plot, json;
+  std::string pose_channel = "SEAVIO_POSE";
   double max_dt_ms = 5.0;
   double segment_m = 10.0;
 };
@@ -23,8 +25,19 @@ int runEval(const EvalOptions& o) {
   std::vector<eval::TimedPose> gt, est;
   try {
     gt = drivers::readTrajectory(o.gt);
-    est = drivers::readTum(o.est);
-  } catch (const drivers::InputError& e) {
+    if (isLcmLog(o.est)) {
+      // The daemon's output as recorded by lcm-logger (issue 7); damage is reported, not fatal.
+      const DaemonOutputLog log = readDaemonOutputLog(o.est, o.pose_channel);
+      if (log.stats.damaged()) spdlog::warn("{}", describeDamage(log.stats, o.est));
+      est = trajectoryFromLog(log);
+      if (est.empty()) {
+        spdlog::error("{}: no {} message in the LCM log", o.est, o.pose_channel);
+        return 2;
+      }
+    } else {
+      est = drivers::readTum(o.est);
+    }
+  } catch (const std::runtime_error& e) {
     spdlog::error("{}", e.what());
     return 2;
   }
@@ -50,9 +63,10 @@ int runEval(const EvalOptions& o) {
 const RegisterCommand kRegister("eval", [](CLI::App& app) {
   auto opts = std::make_shared<EvalOptions>();
   CLI::App* cmd = app.add_subcommand(
-      "eval", "Compare a TUM trajectory with ground truth (Table I errors, drift %, ATE, RPE per 10 m)");
+      "eval", "Compare a trajectory (TUM or LCM log) with ground truth (Table I errors, drift %, ATE, RPE per 10 m)");
   cmd->add_option("--gt", opts->gt, "ground truth: EuRoC/KITTI dataset folder or TUM file")->required();
-  cmd->add_option("--est", opts->est, "estimated trajectory, TUM format")->required();
+  cmd->add_option("--est", opts->est, "estimated trajectory: TUM file, or LCM log of seaviod's poses")->required();
+  cmd->add_option("--pose-channel", opts->pose_channel, "pose channel when --est is an LCM log");
   cmd->add_option("--plot", opts->plot, "write top view and error over distance to this PNG");
   cmd->add_option("--json", opts->json, "write the metrics to this JSON file");
   cmd->add_option("--max-dt-ms", opts->max_dt_ms, "largest time gap for association [ms]")

@@ -25,10 +25,9 @@ struct FrameFeatures {
 };
 
 /// Flat-field correction. The vehicle carries its lights, so uneven illumination and
-/// vignetting form a pattern fixed in the image; a feature sliding through that gradient has
-/// its detected centre dragged by a sub-pixel amount that changes as it moves, which biases
-/// the motion estimate (measured: 0.7-1.5 % of distance on simulated surveys). Dividing by a
-/// low-pass of the image removes the gradient before detection.
+/// vignetting form a pattern fixed in the image, darkening the borders where features would
+/// otherwise be lost; dividing by a low-pass of the image evens the contrast the detector and
+/// its count controller see across the frame.
 struct IlluminationParams {
   bool enabled = true;
   int scale = 16;           ///< low-pass by area-downsampling with this factor

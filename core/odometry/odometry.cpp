@@ -14,6 +14,16 @@ using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
 bool finitePose(const Eigen::Isometry3d& T) { return T.matrix().allFinite(); }
 
+/// `T` with its linear part projected back onto SO(3). Isometry3d::inverse() and rotation()
+/// take the linear part as orthonormal; a pose composed frame after frame and fed back through
+/// the IMU prediction (pose^-1 * predicted pose) otherwise doubles its round-off every frame,
+/// until the world rotation carries a ~0.5 % scale that shortens every published step.
+Eigen::Isometry3d orthonormalized(const Eigen::Isometry3d& T) {
+  Eigen::Isometry3d out = T;
+  out.linear() = Eigen::Quaterniond(T.linear()).normalized().toRotationMatrix();
+  return out;
+}
+
 /// Relative-motion covariance (rotation, translation) from the propagated error state.
 Matrix6d relativeCovariance(const imu::Matrix9d& P) {
   Matrix6d C = Matrix6d::Zero();
@@ -120,7 +130,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   Matrix6d pred_cov;
   if (have_imu) {
     pred = imu::propagate(state_, start_cov, imu_buffer_, frame.t_ns, imu_noise_);
-    T_prev_curr_pred = (state_.T_W_B * T_B_R0).inverse() * (pred.state.T_W_B * T_B_R0);
+    pred.state.T_W_B = orthonormalized(pred.state.T_W_B);
+    T_prev_curr_pred = orthonormalized((state_.T_W_B * T_B_R0).inverse() * (pred.state.T_W_B * T_B_R0));
     pred_cov = relativeCovariance(pred.covariance);
   } else {
     // No IMU (KITTI, IMU outage): constant-velocity prediction, loosely trusted.
@@ -223,7 +234,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   }
   r.times.icp_ms = timer.lap_ms();
 
-  Eigen::Isometry3d T_W_B = T_W_R0 * T_B_R0.inverse();
+  T_W_R0 = orthonormalized(T_W_R0);
+  Eigen::Isometry3d T_W_B = orthonormalized(T_W_R0 * T_B_R0.inverse());
   if (vision_ok && dt_s > 0 &&
       (T_W_B.translation() - state_.T_W_B.translation()).norm() / dt_s > params_.max_speed_m_s) {
     vision_ok = false;  // a jump: refuse it rather than publish it

@@ -1,0 +1,291 @@
+#include "tools/profile_report.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <limits>
+#include <stdexcept>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace seavio::tools {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+std::string fmt(const char* f, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), f, v);
+  return buf;
+}
+
+std::string cell(double v) { return std::isfinite(v) ? fmt("%9.2f", v) : std::string("        -"); }
+
+std::string num(double v) { return std::isfinite(v) ? fmt("%.6g", v) : std::string("null"); }
+
+/// Tick spacing of 1, 2 or 5 x 10^k giving about `n` ticks over `range`.
+double niceStep(double range, int n) {
+  if (!(range > 0)) return 1.0;
+  const double raw = range / n;
+  const double p = std::pow(10.0, std::floor(std::log10(raw)));
+  for (double m : {1.0, 2.0, 5.0})
+    if (raw <= m * p) return m * p;
+  return 10.0 * p;
+}
+
+/// Data [x0,x1] x [y0,y1] mapped into the pixel rectangle `area`, y up.
+struct Axes {
+  cv::Rect area;
+  double x0, x1, y0, y1;
+  cv::Point px(double x, double y) const {
+    const double fx = (x - x0) / (x1 - x0), fy = (y - y0) / (y1 - y0);
+    return {area.x + int(std::lround(std::clamp(fx, 0.0, 1.0) * area.width)),
+            area.y + area.height - int(std::lround(std::clamp(fy, 0.0, 1.0) * area.height))};
+  }
+};
+
+const cv::Scalar kBlack(0, 0, 0), kGrey(215, 215, 215), kRed(30, 30, 220), kBlue(200, 110, 20),
+    kGreen(60, 150, 60);
+constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
+
+void drawAxes(cv::Mat& img, const Axes& a, const std::string& xlabel, const std::string& ylabel,
+              const std::string& title) {
+  const double sx = niceStep(a.x1 - a.x0, 8), sy = niceStep(a.y1 - a.y0, 6);
+  for (double x = std::ceil(a.x0 / sx) * sx; x <= a.x1 + 1e-9; x += sx) {
+    const cv::Point p = a.px(x, a.y0);
+    cv::line(img, {p.x, a.area.y}, {p.x, a.area.y + a.area.height}, kGrey, 1);
+    cv::putText(img, fmt(sx >= 1 ? "%.0f" : "%.1f", x), {p.x - 10, p.y + 18}, kFont, 0.45, kBlack, 1, cv::LINE_AA);
+  }
+  for (double y = std::ceil(a.y0 / sy) * sy; y <= a.y1 + 1e-9; y += sy) {
+    const cv::Point p = a.px(a.x0, y);
+    cv::line(img, {a.area.x, p.y}, {a.area.x + a.area.width, p.y}, kGrey, 1);
+    cv::putText(img, fmt(sy >= 1 ? "%.0f" : "%.1f", y), {p.x - 45, p.y + 5}, kFont, 0.45, kBlack, 1, cv::LINE_AA);
+  }
+  cv::rectangle(img, a.area, kBlack, 1);
+  cv::putText(img, xlabel, {a.area.x + a.area.width / 2 - 60, a.area.y + a.area.height + 40}, kFont, 0.55, kBlack, 1,
+              cv::LINE_AA);
+  cv::putText(img, ylabel, {a.area.x - 70, a.area.y - 10}, kFont, 0.5, kBlack, 1, cv::LINE_AA);
+  cv::putText(img, title, {a.area.x + a.area.width / 2 - 150, a.area.y - 12}, kFont, 0.6, kBlack, 1, cv::LINE_AA);
+}
+
+void writeStatsJson(std::ostream& out, const LatencyStats& s) {
+  out << "{\"name\": \"" << s.name << "\", \"count\": " << s.count << ", \"per_frame\": " << (s.per_frame ? "true" : "false")
+      << ", \"p50_ms\": " << num(s.p50_ms) << ", \"p90_ms\": " << num(s.p90_ms) << ", \"p99_ms\": " << num(s.p99_ms)
+      << ", \"max_ms\": " << num(s.max_ms) << "}";
+}
+
+}  // namespace
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const double rank = std::ceil(std::clamp(q, 0.0, 1.0) * static_cast<double>(v.size()));
+  const std::size_t i = rank < 1 ? 0 : static_cast<std::size_t>(rank) - 1;
+  return v[std::min(i, v.size() - 1)];
+}
+
+LatencyStats latencyStats(const std::string& name, const std::vector<double>& v) {
+  LatencyStats s;
+  s.name = name;
+  s.count = v.size();
+  s.p50_ms = percentile(v, 0.5);
+  s.p90_ms = percentile(v, 0.9);
+  s.p99_ms = percentile(v, 0.99);
+  s.max_ms = v.empty() ? 0.0 : *std::max_element(v.begin(), v.end());
+  return s;
+}
+
+ProfileReport computeProfile(const DaemonOutputLog& log, const ProfileParams& params) {
+  ProfileReport r;
+  r.params = params;
+  r.log = log.stats;
+  const int64_t max_ns = static_cast<int64_t>(params.max_plausible_latency_ms * 1e6);
+  bool same_clock = !log.poses.empty();
+  for (const LoggedPose& p : log.poses) {
+    const int64_t age = p.msg.publish_t_ns - p.msg.t_ns;
+    if (age < 0 || age > max_ns) same_clock = false;
+  }
+  r.end_to_end_basis = same_clock ? "capture_to_publish" : "processing (lower bound)";
+  std::vector<double> proc, e2e, interval;
+  const int64_t pub0 = log.poses.empty() ? 0 : log.poses.front().msg.publish_t_ns;
+  for (std::size_t i = 0; i < log.poses.size(); ++i) {
+    const seavio_lcm::pose_t& m = log.poses[i].msg;
+    FrameTiming f;
+    f.seq = m.seq;
+    f.t_ns = m.t_ns;
+    f.publish_s = static_cast<double>(m.publish_t_ns - pub0) * 1e-9;
+    f.processing_ms = m.processing_ms;
+    f.end_to_end_ms = same_clock ? static_cast<double>(m.publish_t_ns - m.t_ns) * 1e-6 : m.processing_ms;
+    if (f.end_to_end_ms > params.budget_ms) ++r.over_budget;
+    proc.push_back(f.processing_ms);
+    e2e.push_back(f.end_to_end_ms);
+    if (i > 0) {
+      const seavio_lcm::pose_t& prev = log.poses[i - 1].msg;
+      interval.push_back(static_cast<double>(m.publish_t_ns - prev.publish_t_ns) * 1e-6);
+      if (m.seq > prev.seq + 1) {
+        r.seq_gaps += static_cast<uint64_t>(m.seq - prev.seq - 1);
+      } else if (m.seq <= prev.seq) {
+        ++r.repeated_or_backward_seq;
+      }
+    }
+    r.frames.push_back(f);
+  }
+  r.per_frame.push_back(latencyStats("process", proc));
+  r.per_frame.push_back(latencyStats("publish_interval", interval));
+  r.per_frame.push_back(latencyStats("end_to_end", e2e));
+  if (!log.statuses.empty()) {
+    r.has_status = true;
+    r.last_status = log.statuses.back();
+    const seavio_lcm::status_t& s = r.last_status;
+    const std::size_t n = std::min({s.stage_names.size(), s.p50_ms.size(), s.p99_ms.size()});
+    for (std::size_t i = 0; i < n; ++i) {
+      LatencyStats st;
+      st.name = s.stage_names[i];
+      st.count = static_cast<uint64_t>(s.frames_processed);
+      st.per_frame = false;
+      st.p50_ms = s.p50_ms[i];
+      st.p99_ms = s.p99_ms[i];
+      st.p90_ms = st.max_ms = kNaN;
+      r.daemon_stages.push_back(st);
+    }
+  }
+  return r;
+}
+
+void printProfile(std::ostream& os, const ProfileReport& r) {
+  os << "poses: " << r.frames.size() << "; budget " << fmt("%.1f", r.params.budget_ms) << " ms; end-to-end basis: "
+     << r.end_to_end_basis << "\n\n";
+  os << "per frame (pose messages)   count    p50 ms    p90 ms    p99 ms    max ms\n";
+  auto row = [&os](const LatencyStats& s) {
+    char buf[64];
+    std::snprintf(buf, sizeof(buf), "  %-24s %6llu", s.name.c_str(), static_cast<unsigned long long>(s.count));
+    os << buf << " " << cell(s.p50_ms) << " " << cell(s.p90_ms) << " " << cell(s.p99_ms) << " " << cell(s.max_ms)
+       << "\n";
+  };
+  for (const LatencyStats& s : r.per_frame) row(s);
+  if (r.has_status) {
+    os << "\ndaemon stages (last status, histogram: p50/p99 only)\n";
+    for (const LatencyStats& s : r.daemon_stages) row(s);
+  } else {
+    os << "\nno status message in the log: per-stage figures unavailable\n";
+  }
+  if (r.end_to_end_basis != "capture_to_publish")
+    os << "note: capture stamps are not on the daemon clock (replayed dataset), so per-frame end_to_end is the\n"
+          "      processing time; the daemon's end_to_end stage (acquisition to publish) includes queueing\n";
+  os << "\nframes over the " << fmt("%.1f", r.params.budget_ms) << " ms budget: " << r.over_budget << " of "
+     << r.frames.size() << "\n";
+  os << "dropped frames seen as pose sequence gaps: " << r.seq_gaps;
+  if (r.repeated_or_backward_seq > 0) os << " (plus " << r.repeated_or_backward_seq << " repeated/backward seq)";
+  os << "\n";
+  if (r.has_status) {
+    const seavio_lcm::status_t& s = r.last_status;
+    os << "daemon counters: frames in " << s.frames_in << ", processed " << s.frames_processed
+       << ", dropped in ring " << s.frames_dropped_camera_ring << ", dropped at shutdown "
+       << s.frames_dropped_shutdown << ", missing upstream " << s.frames_missing_upstream
+       << ", processing failures " << s.processing_failures << ", IMU-only " << s.imu_only_frames << "\n";
+  }
+  const LogScanStats& l = r.log;
+  os << "log: " << l.events << " events, " << l.decode_failures << " undecodable, " << l.resyncs
+     << " corrupt region(s) (" << l.skipped_bytes << " bytes skipped), truncated tail " << l.truncated_tail_bytes
+     << " bytes";
+  for (const auto& [ch, n] : l.other_channels) os << "; " << n << " on " << ch;
+  os << "\n";
+}
+
+void writeProfileJson(const std::string& path, const ProfileReport& r) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error(path + ": cannot open for writing");
+  out << "{\n  \"budget_ms\": " << num(r.params.budget_ms) << ",\n  \"end_to_end_basis\": \"" << r.end_to_end_basis
+      << "\",\n  \"frames\": " << r.frames.size() << ",\n  \"over_budget\": " << r.over_budget
+      << ",\n  \"seq_gaps\": " << r.seq_gaps << ",\n  \"repeated_or_backward_seq\": " << r.repeated_or_backward_seq
+      << ",\n  \"per_frame\": [";
+  for (std::size_t i = 0; i < r.per_frame.size(); ++i) {
+    out << (i ? ", " : "");
+    writeStatsJson(out, r.per_frame[i]);
+  }
+  out << "],\n  \"daemon_stages\": [";
+  for (std::size_t i = 0; i < r.daemon_stages.size(); ++i) {
+    out << (i ? ", " : "");
+    writeStatsJson(out, r.daemon_stages[i]);
+  }
+  out << "],\n";
+  if (r.has_status) {
+    const seavio_lcm::status_t& s = r.last_status;
+    out << "  \"daemon_counters\": {\"frames_in\": " << s.frames_in << ", \"frames_processed\": " << s.frames_processed
+        << ", \"frames_dropped_camera_ring\": " << s.frames_dropped_camera_ring
+        << ", \"frames_dropped_shutdown\": " << s.frames_dropped_shutdown
+        << ", \"frames_missing_upstream\": " << s.frames_missing_upstream
+        << ", \"processing_failures\": " << s.processing_failures << "},\n";
+  }
+  const LogScanStats& l = r.log;
+  out << "  \"log\": {\"events\": " << l.events << ", \"decode_failures\": " << l.decode_failures
+      << ", \"resyncs\": " << l.resyncs << ", \"skipped_bytes\": " << l.skipped_bytes
+      << ", \"truncated_tail_bytes\": " << l.truncated_tail_bytes << "},\n";
+  out << "  \"seq\": [";
+  for (std::size_t i = 0; i < r.frames.size(); ++i) out << (i ? ", " : "") << r.frames[i].seq;
+  out << "],\n  \"processing_ms\": [";
+  for (std::size_t i = 0; i < r.frames.size(); ++i) out << (i ? ", " : "") << num(r.frames[i].processing_ms);
+  out << "],\n  \"end_to_end_ms\": [";
+  for (std::size_t i = 0; i < r.frames.size(); ++i) out << (i ? ", " : "") << num(r.frames[i].end_to_end_ms);
+  out << "]\n}\n";
+  if (!out) throw std::runtime_error(path + ": write failed");
+}
+
+void writeProfilePlot(const std::string& path_png, const ProfileReport& r) {
+  cv::Mat img(800, 1200, CV_8UC3, cv::Scalar(255, 255, 255));
+  const double budget = r.params.budget_ms;
+  double ymax = budget * 1.2;
+  for (const FrameTiming& f : r.frames) ymax = std::max(ymax, std::max(f.end_to_end_ms, f.processing_ms) * 1.05);
+  const double n = std::max<double>(1.0, static_cast<double>(r.frames.size()) - 1.0);
+
+  const Axes tl{cv::Rect(110, 50, 1040, 290), 0.0, n, 0.0, ymax};
+  drawAxes(img, tl, "frame index", "[ms]", "latency per frame (" + r.end_to_end_basis + ")");
+  cv::line(img, tl.px(0, budget), tl.px(n, budget), kRed, 1, cv::LINE_AA);
+  cv::putText(img, fmt("budget %.0f ms", budget), tl.px(0, budget) + cv::Point(6, -6), kFont, 0.45, kRed, 1,
+              cv::LINE_AA);
+  for (std::size_t i = 1; i < r.frames.size(); ++i) {
+    const double x0 = static_cast<double>(i - 1), x1 = static_cast<double>(i);
+    cv::line(img, tl.px(x0, r.frames[i - 1].processing_ms), tl.px(x1, r.frames[i].processing_ms), kGreen, 1,
+             cv::LINE_AA);
+    cv::line(img, tl.px(x0, r.frames[i - 1].end_to_end_ms), tl.px(x1, r.frames[i].end_to_end_ms), kBlue, 1,
+             cv::LINE_AA);
+  }
+  cv::putText(img, "end to end", {tl.area.x + tl.area.width - 200, tl.area.y + 22}, kFont, 0.5, kBlue, 1, cv::LINE_AA);
+  cv::putText(img, "processing", {tl.area.x + tl.area.width - 200, tl.area.y + 44}, kFont, 0.5, kGreen, 1,
+              cv::LINE_AA);
+
+  // Histogram of the end-to-end figure, about 40 bins over [0, ymax].
+  const double bin = niceStep(ymax, 40);
+  const int nbins = std::max(1, static_cast<int>(std::ceil(ymax / bin)));
+  std::vector<int> counts(static_cast<std::size_t>(nbins), 0);
+  for (const FrameTiming& f : r.frames) {
+    const int b = std::clamp(static_cast<int>(f.end_to_end_ms / bin), 0, nbins - 1);
+    ++counts[static_cast<std::size_t>(b)];
+  }
+  const int cmax = std::max(1, *std::max_element(counts.begin(), counts.end()));
+  const Axes hist{cv::Rect(110, 440, 1040, 270), 0.0, nbins * bin, 0.0, cmax * 1.1};
+  drawAxes(img, hist, "end-to-end latency [ms]", "frames", "histogram");
+  for (int b = 0; b < nbins; ++b) {
+    if (counts[static_cast<std::size_t>(b)] == 0) continue;
+    cv::rectangle(img, hist.px(b * bin, counts[static_cast<std::size_t>(b)]), hist.px((b + 1) * bin, 0), kBlue,
+                  cv::FILLED);
+  }
+  cv::line(img, hist.px(budget, 0), hist.px(budget, cmax * 1.1), kRed, 1, cv::LINE_AA);
+  const LatencyStats& e = r.per_frame.back();
+  const std::string summary = "p50 " + fmt("%.1f", e.p50_ms) + " ms, p90 " + fmt("%.1f", e.p90_ms) + " ms, p99 " +
+                              fmt("%.1f", e.p99_ms) + " ms, max " + fmt("%.1f", e.max_ms) + " ms; over budget " +
+                              std::to_string(r.over_budget) + " of " + std::to_string(r.frames.size()) +
+                              "; seq gaps " + std::to_string(r.seq_gaps);
+  cv::putText(img, summary, {110, 785}, kFont, 0.55, r.over_budget ? kRed : kBlack, 1, cv::LINE_AA);
+  bool ok = false;
+  try {
+    ok = cv::imwrite(path_png, img);
+  } catch (const cv::Exception&) {
+    ok = false;
+  }
+  if (!ok) throw std::runtime_error(path_png + ": cannot write PNG");
+}
+
+}  // namespace seavio::tools

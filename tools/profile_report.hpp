@@ -1,0 +1,80 @@
+#pragma once
+/// Latency profile of a seaviod run from its LCM output log (issue 7, `seavio profile`).
+///
+/// What the messages carry decides what can be measured:
+///  - every pose_t has the frame's capture stamp `t_ns`, its publication time `publish_t_ns`
+///    and the estimator's wall time `processing_ms`: these give exact per-frame figures;
+///  - status_t carries the daemon's own per-stage histograms (rectify ... icp, queue,
+///    process, publish, end_to_end, capture_to_publish) as p50/p99 only, 5 % bins: the
+///    last status message of the log is reported as is.
+/// Capture-to-publish per frame is only defined when the source stamps frames on the
+/// daemon's monotonic clock (live drivers); replayed datasets keep their own epoch, and then
+/// the per-frame end-to-end figure falls back to the estimator time (a lower bound).
+#include <cstdint>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "tools/lcm_trajectory.hpp"
+
+namespace seavio::tools {
+
+/// Percentiles of one latency [ms]. `per_frame` false: only p50/p99 from the daemon's
+/// histogram are known (p90 and max are then NaN).
+struct LatencyStats {
+  std::string name;
+  uint64_t count = 0;
+  double p50_ms = 0, p90_ms = 0, p99_ms = 0, max_ms = 0;
+  bool per_frame = true;
+};
+
+struct FrameTiming {
+  int64_t seq = 0;
+  int64_t t_ns = 0;             ///< capture stamp [ns]
+  double publish_s = 0;         ///< publication time since the first pose [s]
+  double processing_ms = 0;     ///< estimator wall time [ms]
+  double end_to_end_ms = 0;     ///< capture to publish [ms], or processing_ms (see basis)
+};
+
+struct ProfileParams {
+  double budget_ms = 66.0;  ///< frame budget at 15 fps (paper Sec. V)
+  /// Largest publish - capture difference [ms] taken as a real latency; beyond it (or
+  /// negative) the stamps are on different clocks.
+  double max_plausible_latency_ms = 10'000.0;
+};
+
+struct ProfileReport {
+  ProfileParams params;
+  std::vector<FrameTiming> frames;          ///< in log order
+  std::vector<LatencyStats> per_frame;      ///< "process", "publish_interval", "end_to_end"
+  std::vector<LatencyStats> daemon_stages;  ///< from the last status message (may be empty)
+  /// "capture_to_publish" if every frame's stamps share the daemon clock, else
+  /// "processing (lower bound)".
+  std::string end_to_end_basis;
+  uint64_t over_budget = 0;        ///< frames whose end-to-end figure exceeds the budget
+  uint64_t seq_gaps = 0;           ///< frames missing from the pose sequence numbers
+  uint64_t repeated_or_backward_seq = 0;
+  bool has_status = false;
+  seavio_lcm::status_t last_status{};  ///< valid if has_status
+  LogScanStats log;
+};
+
+/// Nearest-rank percentile (q in 0..1) of `v` [any unit]; 0 for an empty vector.
+double percentile(std::vector<double> v, double q);
+
+/// Stats of `v` [ms] under `name`.
+LatencyStats latencyStats(const std::string& name, const std::vector<double>& v);
+
+ProfileReport computeProfile(const DaemonOutputLog& log, const ProfileParams& params = {});
+
+/// Console table: per-frame figures, daemon stages, budget and drop counts, log damage.
+void printProfile(std::ostream& os, const ProfileReport& r);
+
+/// The same as JSON plus the per-frame arrays. Throws std::runtime_error naming the path.
+void writeProfileJson(const std::string& path, const ProfileReport& r);
+
+/// 1200 x 800 PNG: latency timeline (end-to-end and processing per frame, budget line) over
+/// a histogram of the end-to-end figure. Throws std::runtime_error naming the path.
+void writeProfilePlot(const std::string& path_png, const ProfileReport& r);
+
+}  // namespace seavio::tools
