@@ -16,8 +16,13 @@ namespace fs = std::filesystem;
 
 const std::string kSeavio = std::string(SEAVIO_BINARY_DIR) + "/bin/seavio";
 
+/// Per-test log: ctest runs the tests of this file as parallel processes.
+std::string logPath() {
+  return testing::TempDir() + "/cli_" + testing::UnitTest::GetInstance()->current_test_info()->name() + ".log";
+}
+
 int sh(const std::string& cmd) {
-  const int rc = std::system((cmd + " >" + testing::TempDir() + "/cli.log 2>&1").c_str());
+  const int rc = std::system((cmd + " >" + logPath() + " 2>&1").c_str());
   return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
 }
 
@@ -32,7 +37,7 @@ class Cli : public testing::Test {
  protected:
   void SetUp() override {
     if (!fs::exists(kSeavio)) GTEST_SKIP() << kSeavio << " not built (build the 'seavio' target)";
-    dir_ = fs::path(testing::TempDir()) / "seavio_cli";
+    dir_ = fs::path(testing::TempDir()) / (std::string("seavio_cli_") + testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::create_directories(dir_);
   }
   fs::path dir_;
@@ -41,10 +46,10 @@ class Cli : public testing::Test {
 TEST_F(Cli, SimulateRunEvalEndToEnd) {
   const fs::path data = dir_ / "seq";
   ASSERT_EQ(sh(kSeavio + " simulate short-plain --frames 40 --seed 77 --force --out " + data.string()), 0)
-      << slurp(fs::path(testing::TempDir()) / "cli.log");
+      << slurp(logPath());
   const fs::path traj = dir_ / "traj.txt", stats = dir_ / "stats.json", json = dir_ / "acc.json", png = dir_ / "plot.png";
   ASSERT_EQ(sh(kSeavio + " run --dataset " + data.string() + " --out " + traj.string() + " --stats " + stats.string()), 0)
-      << slurp(fs::path(testing::TempDir()) / "cli.log");
+      << slurp(logPath());
   // One TUM row per stereo frame, the stats hold per-stage times.
   EXPECT_EQ(drivers::readTum(traj.string()).size(), 40u);
   const std::string s = slurp(stats);
@@ -60,11 +65,11 @@ TEST_F(Cli, SimulateRunEvalEndToEnd) {
 
 TEST_F(Cli, BadInputExitsNonZeroWithAMessage) {
   EXPECT_NE(sh(kSeavio + " run --dataset /nonexistent --out " + (dir_ / "x.txt").string()), 0);
-  EXPECT_NE(slurp(fs::path(testing::TempDir()) / "cli.log").find("/nonexistent"), std::string::npos);
+  EXPECT_NE(slurp(logPath()).find("/nonexistent"), std::string::npos);
   const fs::path cfg = dir_ / "bad.yaml";
   std::ofstream(cfg) << "odometry:\n  icp:\n    max_iteratons: 3\n";
   EXPECT_NE(sh(kSeavio + " run --print-config --config " + cfg.string()), 0);
-  EXPECT_NE(slurp(fs::path(testing::TempDir()) / "cli.log").find("odometry.icp.max_iteratons"), std::string::npos);
+  EXPECT_NE(slurp(logPath()).find("odometry.icp.max_iteratons"), std::string::npos);
   EXPECT_NE(sh(kSeavio + " run --dataset /tmp --mode sideways --out " + (dir_ / "x.txt").string()), 0);
 }
 
