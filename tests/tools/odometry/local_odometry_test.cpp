@@ -34,7 +34,10 @@ const drivers::Dataset& sequence(uint32_t seed, bool snow) {
   static std::map<std::pair<uint32_t, bool>, std::unique_ptr<drivers::Dataset>> cache;
   auto& slot = cache[{seed, snow}];
   if (!slot) {
-    const fs::path dir = fs::temp_directory_path() / ("seavio_e2e_" + std::to_string(seed) + (snow ? "_snow" : "_plain"));
+    // Per test: ctest runs each test as its own process, in parallel.
+    const fs::path dir = fs::temp_directory_path() /
+                         ("seavio_e2e_" + std::string(testing::UnitTest::GetInstance()->current_test_info()->name()) +
+                          "_" + std::to_string(seed) + (snow ? "_snow" : "_plain"));
     simulate::writeSequence(shortSurvey(seed, snow), dir.string(), true);
     slot = std::make_unique<drivers::Dataset>(drivers::loadEuroc(dir.string()));
   }
