@@ -132,11 +132,13 @@ void Daemon::cameraLoop() {
     }
     health_.frames_in++;
     health_.last_frame_recv_ns = item.recv_ns;
-    // Single producer: once there is room, only we can fill it again.
-    while (cfg_.backpressure && !stop_acq_ && frames_->sizeApprox() >= frames_->capacity()) {
-      std::this_thread::sleep_for(1ms);
-    }
-    frames_->pushDroppingOldestIfFull(std::move(item));
+    // Backpressure waits on the ring's free-slot count, not on sizeApprox(): the size drops
+    // when the estimator claims a frame but the slot is freed only after the frame is moved
+    // out, and a non-blocking push in that window used to lose the frame (replay then
+    // waited forever for its pose).
+    bool pushed = false;
+    while (cfg_.backpressure && !stop_acq_ && !pushed) pushed = frames_->pushWaitFor(std::move(item), kPoll);
+    if (!pushed) frames_->pushDroppingOldestIfFull(std::move(item));
   }
   camera_ended_ = !stop_acq_;
 }
@@ -160,10 +162,10 @@ void Daemon::imuLoop() {
     if (!accepted(c)) continue;
     if (!s.gyro_rad_s.allFinite() || !s.accel_m_s2.allFinite()) continue;
     health_.imu_samples++;
-    while (cfg_.backpressure && !stop_acq_ && imu_->sizeApprox() >= imu_->capacity()) {
-      std::this_thread::sleep_for(1ms);
-    }
-    imu_->pushOrCountOverflow(std::move(s));
+    // Same slot-count wait as for frames (see cameraLoop).
+    bool pushed = false;
+    while (cfg_.backpressure && !stop_acq_ && !pushed) pushed = imu_->pushWaitFor(std::move(s), kPoll);
+    if (!pushed) imu_->pushOrCountOverflow(std::move(s));
   }
   imu_ended_ = true;
 }

@@ -26,6 +26,13 @@ class SpscRing {
     return false;
   }
 
+  /// Enqueues `item`, waiting at most `timeout` for a free slot (backpressure). On timeout
+  /// false is returned and `item` is left untouched; nothing is counted.
+  template <class Rep, class Period>
+  bool pushWaitFor(T&& item, std::chrono::duration<Rep, Period> timeout) {
+    return q_.wait_enqueue_timed(std::move(item), timeout);
+  }
+
   /// Dequeues the oldest item, waiting at most `timeout`. False on timeout.
   template <class Rep, class Period>
   bool popWaitFor(T& out, std::chrono::duration<Rep, Period> timeout) {
@@ -61,6 +68,15 @@ class FrameRing {
     if (q_.try_enqueue(std::move(item))) return true;
     dropped_.fetch_add(1, std::memory_order_relaxed);
     return false;
+  }
+
+  /// Enqueues `item`, waiting at most `timeout` for a free slot (replay backpressure). Waits
+  /// on the slot count itself: sizeApprox() drops as soon as the consumer claims an item but
+  /// the slot is only released after the item is moved out, so "size < capacity" does not
+  /// guarantee that a non-blocking push succeeds. On timeout `item` is left untouched.
+  template <class Rep, class Period>
+  bool pushWaitFor(T&& item, std::chrono::duration<Rep, Period> timeout) {
+    return q_.wait_enqueue_timed(std::move(item), timeout);
   }
 
   /// Waits at most `timeout` for a frame, then drains to the newest one; older frames

@@ -216,7 +216,14 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
       }
     } else {
       const auto selected = map_.selectNear(T_W_R0.translation());
-      const map::ModelCloud model = map_.buildModel(selected);
+      // Registering against frames just behind us only re-measures the motion the tensor
+      // already measured better; the map bounds the drift when the survey comes back over
+      // older ground (paper III-D), so ICP runs when the selection holds such frames.
+      const int64_t revisit_ns = static_cast<int64_t>(params_.min_revisit_age_s * 1e9);
+      const bool revisit = std::any_of(selected.begin(), selected.end(), [&](const map::MapFrame* f) {
+        return frame.t_ns - f->t_ns >= revisit_ns;
+      });
+      const map::ModelCloud model = revisit ? map_.buildModel(selected) : map::ModelCloud{};
       r.quality.model_points = static_cast<int>(model.points_W.size());
       if (!model.points_W.empty()) {
         const icp::PointCloudIndex index(model.points_W);
@@ -225,7 +232,12 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
         r.quality.icp_iterations = icp.iterations;
         r.quality.icp_inliers = icp.inliers;
         r.quality.icp_rms_m = icp.rms_m;
-        if (icp.status == icp::IcpStatus::kOk && finitePose(icp.T_model_data)) {
+        // Gate: the map may pull the frame only as far as the odometry could plausibly have
+        // drifted; a larger correction is an ICP local minimum, not information.
+        const Eigen::Isometry3d correction = T_W_R0.inverse() * icp.T_model_data;
+        if (icp.status == icp::IcpStatus::kOk && finitePose(icp.T_model_data) &&
+            correction.translation().norm() <= params_.max_map_correction_m &&
+            se3::angle(correction) <= params_.max_map_correction_rad) {
           T_W_R0 = icp.T_model_data;
           T_prev_curr = prev.T_W_R0.inverse() * T_W_R0;
         }

@@ -47,6 +47,9 @@ struct OdometryParams {
   double gyro_bias_sigma_at_rest_rad_s = 3e-4;  ///< bias uncertainty after a still start [rad/s]
   double gyro_bias_sigma_unknown_rad_s = 3e-3;  ///< bias uncertainty without one [rad/s]
   double max_speed_m_s = 10.0;               ///< a visual fix faster than this is rejected as a jump
+  double min_revisit_age_s = 30.0;           ///< global mode: map frames at least this old trigger ICP [s]
+  double max_map_correction_m = 0.03;        ///< global mode: largest accepted ICP correction [m]
+  double max_map_correction_rad = 0.005;     ///< ... and rotation [rad]
   uint32_t seed = 1;                         ///< RANSAC random stream
 };
 

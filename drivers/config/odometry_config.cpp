@@ -193,6 +193,9 @@ void visit(V& v, odometry::OdometryParams& p) {
   v.value("gyro_bias_sigma_at_rest_rad_s", p.gyro_bias_sigma_at_rest_rad_s, 0, 1);
   v.value("gyro_bias_sigma_unknown_rad_s", p.gyro_bias_sigma_unknown_rad_s, 0, 1);
   v.value("max_speed_m_s", p.max_speed_m_s, 0.01, 1000);
+  v.value("min_revisit_age_s", p.min_revisit_age_s, 0, 1e9);
+  v.value("max_map_correction_m", p.max_map_correction_m, 0, 1000);
+  v.value("max_map_correction_rad", p.max_map_correction_rad, 0, 3.2);
   v.value("seed", p.seed, 0, 4294967295.0);
   v.flag("use_rotation_prior", p.use_rotation_prior);
   v.section("refinement", [&] {

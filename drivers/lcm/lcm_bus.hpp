@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -23,10 +24,16 @@ class LcmBus {
   bool good() const { return lcm_->good(); }
   const std::string& url() const { return url_; }
 
-  /// Encodes and sends one message. False (and counted) if LCM refuses it.
+  /// Encodes and sends one message. False (and counted) if LCM refuses it. Thread-safe:
+  /// LCM 1.3's file provider writes one event with several unlocked fwrite() calls, so two
+  /// threads publishing at once (poses and status) interleaved and damaged the output log.
   template <class Msg>
   bool publish(const std::string& channel, const Msg& msg) {
-    const bool ok = good() && lcm_->publish(channel, &msg) == 0;
+    bool ok = false;
+    {
+      const std::lock_guard<std::mutex> lock(publish_mutex_);
+      ok = good() && lcm_->publish(channel, &msg) == 0;
+    }
     if (!ok) publish_failures_.fetch_add(1, std::memory_order_relaxed);
     return ok;
   }
@@ -65,6 +72,7 @@ class LcmBus {
   std::string url_;
   std::vector<std::unique_ptr<Handler>> handlers_;
   std::unique_ptr<lcm::LCM> lcm_;
+  std::mutex publish_mutex_;  ///< serializes publish() across threads
   std::atomic<uint64_t> publish_failures_{0};
   std::atomic<uint64_t> decode_failures_{0};
 };

@@ -1,0 +1,129 @@
+#pragma once
+/// Figures and tables of `seavio bench` (issues 5 and 8): the paper's Tables I and II with
+/// the paper's own numbers beside ours, the scaled paper survey, and resident memory.
+#include <cstdint>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "core/common/types.hpp"
+#include "tools/simulate/sim_config.hpp"
+
+namespace seavio::tools {
+
+/// One row of the paper's Table I (position error after first-pose alignment, ~4.5 km) [m].
+struct PaperAccuracy {
+  const char* variant;  ///< "local" or "global"
+  const char* dataset;  ///< "plain" or "snow"
+  double mean_m, std_m, max_m;
+};
+/// The paper's Table I, section IV.
+const std::vector<PaperAccuracy>& paperTableI();
+
+/// One row of the paper's Table II (2.67 GHz i7, per frame) [ms].
+struct PaperTiming {
+  const char* variant;
+  double features_ms, tensor_ms, icp_ms, total_ms;
+};
+/// The paper's Table II, section IV-B.
+const std::vector<PaperTiming>& paperTableII();
+
+/// Path length of the paper's surveys [m] (section IV: ~4.5 km).
+constexpr double kPaperDistanceM = 4500.0;
+
+/// Median and 99th percentile of a per-frame quantity.
+struct Percentiles {
+  double median = 0, p99 = 0, max = 0;
+};
+/// Linear-interpolated percentiles; zeros for an empty input.
+Percentiles percentiles(std::vector<double> values);
+
+/// The paper-plain / paper-snow preset shortened by `scale` in (0, 1] with the same shape:
+/// leg length, lane spacing and frame count scale by `scale` and the turn-rate limits by
+/// 1/scale (so a 180 deg turn still fits one lane spacing). `width_px` > 0 overrides the
+/// resolution (height = 3/4 width) for quick tests. Throws std::invalid_argument naming
+/// `--scale` (also when a leg gets too short for the speed ramp and a turn: below ~0.01),
+/// `--width` or the preset.
+simulate::SimConfig scaledPaperConfig(const std::string& preset, double scale, uint32_t seed, int width_px = 0);
+
+/// Everything `seavio bench paper` reports about one (variant, dataset) run.
+struct BenchRun {
+  std::string variant;  ///< "local" or "global"
+  std::string dataset;  ///< "plain" or "snow"
+  int frames = 0;
+  int imu_only_frames = 0;
+  double distance_m = 0;
+  double mean_error_m = 0, std_error_m = 0, max_error_m = 0, final_error_m = 0;
+  double mean_error_pct = 0;  ///< mean error / distance travelled [%]
+  bool incomplete = false;    ///< the evaluation covered < 95 % of the ground truth
+  Percentiles features_ms, tensor_ms, icp_ms, total_ms;
+  double rss_mb = 0;                  ///< process VmRSS after the run [MiB]
+  double map_mb_per_1000_frames = 0;  ///< FrameMap::memoryBytes per 1000 frames [MiB]
+  int map_keyframes = 0;
+  std::string plot_path;              ///< error-over-distance PNG ("" if none)
+};
+
+/// Fills the timing columns of `run` from per-frame results.
+void summariseTimes(const std::vector<OdometryResult>& results, BenchRun& run);
+
+/// Table I: ours (mean, std, max, % of distance) beside the paper's, plus the paper's
+/// figures scaled to our distance (error grows with distance, so that is the fair yardstick).
+void printTableI(std::ostream& os, const std::vector<BenchRun>& runs);
+/// Table II: median and p99 per stage beside the paper's, and the ratio paper / ours.
+void printTableII(std::ostream& os, const std::vector<BenchRun>& runs);
+/// Memory per run: resident size and map size per 1000 frames.
+void printMemory(std::ostream& os, const std::vector<BenchRun>& runs);
+
+/// One line of `seavio bench stages`: a stage's per-call figures against the issue 8 goal.
+struct StageRow {
+  std::string stage;
+  Percentiles ms;
+  double goal_ms = -1;  ///< median goal [ms]; negative: none
+  int samples = 0;
+};
+/// Prints median, p99, goal and "ok"/"MISSED" (median vs goal).
+void printStageTable(std::ostream& os, const std::vector<StageRow>& rows);
+
+/// `seavio bench paper`: what to render and run.
+struct PaperBenchOptions {
+  double scale = 1.0;        ///< survey length factor, (0, 1]
+  uint32_t seed = 1;         ///< simulator seed (seafloor, snow, IMU noise)
+  std::string out_dir = "bench-paper";  ///< sequences, trajectories, plots, tables
+  bool reuse = false;        ///< keep an already rendered sequence in out_dir
+  int width_px = 0;          ///< 0 = the preset's 640 x 480
+  int max_frames = 0;        ///< > 0: cut each scaled survey to this many frames (quick checks)
+  std::string config;        ///< tuning YAML ("" = built-in defaults)
+  std::vector<std::string> presets{"paper-plain", "paper-snow"};
+  std::vector<std::string> variants{"local", "global"};
+};
+
+/// Renders (or reuses) each preset scaled by `scale`, runs each variant on it in process
+/// (runSequence), evaluates against the ground truth, writes OUT/<variant>-<data>.txt (TUM)
+/// and .png (top view + error over distance). Throws std::invalid_argument for bad options
+/// and drivers::InputError / std::runtime_error naming the path for file problems.
+std::vector<BenchRun> runPaperBench(const PaperBenchOptions& options);
+
+/// `seavio bench stages`: per-stage timing over a short simulated sequence.
+struct StageBenchOptions {
+  int frames = 60;           ///< frames of the short-plain preset (10 Hz, 1 m/s)
+  uint32_t seed = 3;
+  std::string out_dir = "bench-stages";
+  bool reuse = false;
+  int width_px = 0;          ///< 0 = 640 x 480
+  int icp_model_points = 2600;  ///< the paper's global model size (section IV-B)
+  int icp_repeats = 50;
+  std::string config;
+};
+
+/// Times rectification, SURF (one image and L+R), stereo matching per frame directly, the
+/// temporal matching, tensor RANSAC, ICP and whole frame from a global run (and ICP from a
+/// local run), and ICP against a synthetic model of `icp_model_points` points.
+std::vector<StageRow> runStageBench(const StageBenchOptions& options);
+
+/// VmRSS [kB] from the text of /proc/<pid>/status; nullopt if absent or malformed.
+std::optional<int64_t> parseVmRssKb(const std::string& proc_status_text);
+/// This process' resident size [MiB] from /proc/self/status; nullopt where unavailable.
+std::optional<double> residentMemoryMb();
+
+}  // namespace seavio::tools

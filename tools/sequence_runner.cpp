@@ -1,0 +1,46 @@
+#include "tools/sequence_runner.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <span>
+#include <string>
+#include <utility>
+
+namespace seavio::tools {
+
+int64_t monotonicNowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+SequenceRun runSequence(const drivers::Dataset& ds, const odometry::OdometryParams& params, std::size_t max_frames,
+                        const FrameCallback& on_frame) {
+  if (ds.frames.empty()) throw drivers::InputError(ds.root + ": no stereo frames");
+  std::string error;
+  auto rectifier = camera::StereoRectifier::create(ds.calibration, &error);
+  if (!rectifier) throw drivers::InputError(ds.root + ": calibration unusable: " + error);
+  const std::size_t n = max_frames > 0 ? std::min(ds.frames.size(), max_frames) : ds.frames.size();
+
+  odometry::Odometry odo(std::move(*rectifier), ds.imu_noise, params, monotonicNowNs);
+  SequenceRun out;
+  out.trajectory.reserve(n);
+  out.results.reserve(n);
+  std::size_t imu_cursor = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const StereoFrame frame = drivers::loadFrame(ds, i);
+    const std::size_t begin = imu_cursor > 0 ? imu_cursor - 1 : 0;
+    while (imu_cursor < ds.imu.size() && ds.imu[imu_cursor].t_ns <= frame.t_ns) ++imu_cursor;
+    const std::size_t end = std::min(ds.imu.size(), imu_cursor + 1);
+    const std::span<const ImuSample> imu(ds.imu.data() + begin, end - begin);
+    OdometryResult r = odo.process(frame, imu);
+    out.trajectory.push_back({r.t_ns, r.T_W_B});
+    if (on_frame) on_frame(i, r);
+    out.results.push_back(std::move(r));
+  }
+  out.map_keyframes = odo.frameMap().size();
+  out.map_points = odo.frameMap().pointCount();
+  out.map_bytes = odo.frameMap().memoryBytes();
+  return out;
+}
+
+}  // namespace seavio::tools

@@ -1,0 +1,38 @@
+#pragma once
+/// The synchronous per-frame loop of `seavio run` as a library call, so `seavio bench` (and
+/// later `seavio run`) drive the odometry through exactly the same code.
+#include <cstddef>
+#include <functional>
+#include <vector>
+
+#include "core/common/types.hpp"
+#include "core/eval/trajectory_metrics.hpp"
+#include "core/odometry/odometry.hpp"
+#include "drivers/dataset/dataset.hpp"
+
+namespace seavio::tools {
+
+/// Called after each processed frame with (frame index, its result).
+using FrameCallback = std::function<void(std::size_t index, const OdometryResult& result)>;
+
+/// Everything one pass over a dataset produced.
+struct SequenceRun {
+  std::vector<eval::TimedPose> trajectory;  ///< T_W_B per frame, t_ns on the dataset clock
+  std::vector<OdometryResult> results;      ///< per frame, stage times and quality included
+  std::size_t map_keyframes = 0;            ///< keyframes in the global map at the end
+  std::size_t map_points = 0;               ///< points stored in the map at the end
+  std::size_t map_bytes = 0;                ///< FrameMap::memoryBytes() at the end [bytes]
+};
+
+/// Monotonic wall clock [ns] (std::chrono::steady_clock), the clock the stage times use.
+int64_t monotonicNowNs();
+
+/// Runs the odometry over the first `max_frames` frames of `ds` (0 = all), handing each frame
+/// the IMU samples from the one before the previous frame to the first one after this frame
+/// (the odometry interpolates, it does not double-count). Deterministic for a given `params`.
+/// Throws drivers::InputError naming the dataset if it has no frames or its calibration
+/// cannot be rectified, and whatever drivers::loadFrame throws for an unreadable image.
+SequenceRun runSequence(const drivers::Dataset& ds, const odometry::OdometryParams& params,
+                        std::size_t max_frames = 0, const FrameCallback& on_frame = {});
+
+}  // namespace seavio::tools
