@@ -1,6 +1,5 @@
 // `seavio run`: the odometry over a recorded dataset, as fast as it goes, deterministic.
 #include <algorithm>
-#include <chrono>
 #include <fstream>
 #include <iostream>
 #include <memory>
@@ -19,6 +18,7 @@
 #include "drivers/dataset/tum_io.hpp"
 #include "tools/command_registry.hpp"
 #include "tools/run_stats.hpp"
+#include "tools/sequence_runner.hpp"
 
 namespace seavio::tools {
 namespace {
@@ -34,11 +34,6 @@ struct RunOptions {
   bool quiet = false;
   bool print_config = false;
 };
-
-int64_t monotonicNowNs() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
 
 /// Dead reckoning only (paper III-A), for comparison with the visual pipeline.
 std::vector<eval::TimedPose> runImuOnly(const drivers::Dataset& ds, std::size_t n_frames) {
@@ -111,30 +106,14 @@ int run(const RunOptions& o) {
     trajectory = runPnpBaseline(ds, n, params, stats);
     stats.printTable(std::cout);
   } else {
-    std::string error;
-    auto rectifier = camera::StereoRectifier::create(ds.calibration, &error);
-    if (!rectifier) throw drivers::InputError(ds.root + ": calibration unusable: " + error);
-    const camera::RectifiedRig& rig = rectifier->rig();
-    spdlog::info("rectified rig: {}x{} f {:.3f} px c ({:.3f}, {:.3f}) baseline {:.5f} m, R0 in body at ({:.4f}, {:.4f}, {:.4f})",
-                 rig.width, rig.height, rig.f_px, rig.cx, rig.cy, rig.baseline_m, rig.T_B_R0.translation().x(),
-                 rig.T_B_R0.translation().y(), rig.T_B_R0.translation().z());
-    odometry::Odometry odo(std::move(*rectifier), ds.imu_noise, params, monotonicNowNs);
-    std::size_t imu_cursor = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      const StereoFrame frame = drivers::loadFrame(ds, i);
-      // Hand over the samples up to and including the first one after the frame.
-      const std::size_t begin = imu_cursor > 0 ? imu_cursor - 1 : 0;
-      while (imu_cursor < ds.imu.size() && ds.imu[imu_cursor].t_ns <= frame.t_ns) ++imu_cursor;
-      const std::size_t end = std::min(ds.imu.size(), imu_cursor + 1);
-      const std::span<const ImuSample> imu(ds.imu.data() + begin, end - begin);
-      const OdometryResult r = odo.process(frame, imu);
-      trajectory.push_back({r.t_ns, r.T_W_B});
-      stats.add(r);
+    const SequenceRun seq = runSequence(ds, params, n, [&](std::size_t i, const OdometryResult& r) {
       if (!o.quiet && (i % 100 == 0 || i + 1 == n))
         spdlog::info("frame {}/{}: features {} stereo {} temporal {} inliers {} icp {} {:.1f} ms", i + 1, n,
                      r.quality.features_left, r.quality.stereo_matches, r.quality.temporal_matches,
                      r.quality.ransac_inliers, r.quality.icp_iterations, r.times.total_ms);
-    }
+    });
+    trajectory = seq.trajectory;
+    for (const OdometryResult& r : seq.results) stats.add(r);
     stats.printTable(std::cout);
     if (!o.stats.empty()) stats.writeJson(o.stats);
   }
