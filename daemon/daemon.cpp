@@ -98,6 +98,15 @@ void Daemon::stop() {
   notifier_->notify("STOPPING=1");
 }
 
+DriverFaults Daemon::driverFaults() const {
+  // Sources built by source_factory for live drivers report their device faults; replayed
+  // and LCM sources have none of their own.
+  DriverFaults f;
+  if (const auto* r = dynamic_cast<const FaultReporter*>(camera_.get())) f += r->faults();
+  if (const auto* r = dynamic_cast<const FaultReporter*>(imu_src_.get())) f += r->faults();
+  return f;
+}
+
 uint64_t Daemon::accountedFrames() const {
   return health_.frames_processed + framesDroppedInRing() + health_.frames_dropped_shutdown +
          health_.processing_failures;
@@ -286,7 +295,10 @@ void Daemon::estimatorLoop() {
 
 void Daemon::publishPose(PoseItem& p) {
   const int64_t now = monotonicNowNs();
-  const seavio_lcm::pose_t msg = drivers::toPoseMsg(p.result, now);
+  seavio_lcm::pose_t msg = drivers::toPoseMsg(p.result, now);
+  // Per-frame stage split on the pose itself (issue 7), so `seavio profile` gets exact
+  // p90/max per stage, which the status histograms cannot give.
+  drivers::setPoseTiming(msg, p.result.times, p.recv_ns, p.proc_end_ns, now);
   if (!bus_->publish(cfg_.lcm.pose_channel, msg)) {
     health_.publish_failures++;
     return;
@@ -350,6 +362,17 @@ seavio_lcm::status_t Daemon::statusMessage() const {
   m.features_right = health_.features_right;
   m.ransac_inliers = health_.ransac_inliers;
   m.icp_inliers = health_.icp_inliers;
+  const DriverFaults f = driverFaults();
+  m.camera_reconnects = static_cast<int64_t>(f.camera_reconnects);
+  m.camera_unpaired_frames = static_cast<int64_t>(f.camera_unpaired_frames);
+  m.camera_lost_frames = static_cast<int64_t>(f.camera_lost_frames);
+  m.camera_corrupt_frames = static_cast<int64_t>(f.camera_corrupt_frames);
+  m.imu_checksum_errors = static_cast<int64_t>(f.imu_checksum_errors);
+  m.imu_garbage_bytes = static_cast<int64_t>(f.imu_garbage_bytes);
+  m.imu_partial_packets = static_cast<int64_t>(f.imu_partial_packets);
+  m.imu_reconnects = static_cast<int64_t>(f.imu_reconnects);
+  m.imu_bus_errors = static_cast<int64_t>(f.imu_bus_errors);
+  m.timestamp_jumps = static_cast<int64_t>(f.timestamp_jumps);
   return m;
 }
 
@@ -382,6 +405,11 @@ std::string Daemon::summary() const {
     << "  failures: processing " << m.processing_failures << ", publish " << m.publish_failures
     << ", camera source " << health_.camera_source_errors << ", IMU source "
     << health_.imu_source_errors << "\n"
+    << "  device faults: camera reconnects " << m.camera_reconnects << ", unpaired " << m.camera_unpaired_frames
+    << ", lost " << m.camera_lost_frames << ", corrupt " << m.camera_corrupt_frames << "; IMU checksum "
+    << m.imu_checksum_errors << ", garbage bytes " << m.imu_garbage_bytes << ", partial " << m.imu_partial_packets
+    << ", reconnects " << m.imu_reconnects << ", bus errors " << m.imu_bus_errors << "; timestamp jumps "
+    << m.timestamp_jumps << "\n"
     << "  latency [ms]          count      p50      p99      max\n";
   for (int i = 0; i < static_cast<int>(Stage::kCount); ++i) {
     const LatencyHistogram& h = health_.latency[i];

@@ -56,6 +56,8 @@ class Daemon {
   const HealthCounters& health() const { return health_; }
   uint64_t framesDroppedInRing() const { return frames_ ? frames_->dropped() : 0; }
   uint64_t imuOverflow() const { return imu_ ? imu_->overflowed() : 0; }
+  /// Device faults counted by the sources' drivers (zero for sources without any).
+  DriverFaults driverFaults() const;
   /// processed + dropped (ring, shutdown) + processing failures; equals frames_in after stop().
   uint64_t accountedFrames() const;
   /// Current status message (also what the status thread publishes).

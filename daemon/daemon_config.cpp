@@ -28,6 +28,11 @@ class Reader {
       return;
     }
     for (const auto& kv : node) {
+      // A list or map as key has no name to report ("daemon.: unknown key" before): say where.
+      if (!kv.first.IsScalar()) {
+        error(prefix, "a key must be a plain name (line " + std::to_string(kv.first.Mark().line + 1) + ")");
+        continue;
+      }
       const std::string k = kv.first.as<std::string>("");
       if (!known.count(k)) error(prefix + "." + k, "unknown key");
     }
@@ -55,6 +60,18 @@ class Reader {
 
 }  // namespace
 
+std::string cameraDriversBuilt() {
+  std::string s = "dataset, lcm, ";
+#ifdef SEAVIO_HAVE_ARAVIS
+  s += "aravis, ";
+#endif
+  s += "v4l2, ";
+#ifdef SEAVIO_HAVE_LIBCAMERA
+  s += "libcamera, ";
+#endif
+  return s.substr(0, s.size() - 1);  // "a, b," : the validator looks names up as " name,"
+}
+
 void validateDaemonConfig(const DaemonConfig& c, const std::string& origin,
                           std::vector<std::string>& errors) {
   auto err = [&](const std::string& key, const std::string& what) {
@@ -66,8 +83,53 @@ void validateDaemonConfig(const DaemonConfig& c, const std::string& origin,
   if (c.processor == "odometry" && c.camera.driver != "dataset" && c.calibration_dataset.empty()) {
     err("calibration_dataset", "required for processor odometry unless camera.driver is dataset");
   }
-  if (c.camera.driver != "dataset" && c.camera.driver != "lcm") {
-    err("camera.driver", "'" + c.camera.driver + "' is not one of dataset, lcm");
+  const std::string cam_drivers = cameraDriversBuilt();
+  if ((" " + cam_drivers + ",").find(" " + c.camera.driver + ",") == std::string::npos) {
+    err("camera.driver", "'" + c.camera.driver + "' is not one of " + cam_drivers.substr(0, cam_drivers.size() - 1) +
+                             (c.camera.driver == "libcamera" || c.camera.driver == "aravis"
+                                  ? " (" + c.camera.driver + " support was not built in)"
+                                  : ""));
+  }
+  const std::string& cd = c.camera.driver;
+  const bool live_cam = cd == "aravis" || cd == "v4l2" || cd == "libcamera";
+  if (live_cam) {
+    if (!(c.camera.frame_rate_hz >= 0.0) || c.camera.frame_rate_hz > 1000.0) err("camera.frame_rate_hz", "must be in [0, 1000]");
+    if (c.camera.buffers < 2 || c.camera.buffers > 64) err("camera.buffers", std::to_string(c.camera.buffers) + " outside [2, 64]");
+    if (c.camera.width < 0 || c.camera.width > 16384) err("camera.width", "must be in [0, 16384]");
+    if (c.camera.height < 0 || c.camera.height > 16384) err("camera.height", "must be in [0, 16384]");
+    if (c.camera.width > 0 && c.camera.height == 0) err("camera.height", "must be set together with camera.width");
+  }
+  if (cd == "v4l2" || cd == "libcamera" || (cd == "aravis" && c.camera.aravis.right.empty())) {
+    // Side by side: both views share one image, so its width splits in two.
+    if (c.camera.width % 2 != 0) err("camera.width", "side-by-side stereo needs an even width");
+  }
+  if (cd == "v4l2" || cd == "libcamera") {
+    if (c.camera.width <= 0) err("camera.width", "required (> 0) for " + cd);
+    if (c.camera.height <= 0) err("camera.height", "required (> 0) for " + cd);
+  }
+  if (cd == "aravis") {
+    const AravisSection& a = c.camera.aravis;
+    if (a.left.empty()) err("camera.aravis.left", "required for camera.driver aravis");
+    if (!a.right.empty() && a.right == a.left) err("camera.aravis.right", "must differ from camera.aravis.left");
+    if (!(a.exposure_us >= 0.0) || a.exposure_us > 10'000'000.0) err("camera.aravis.exposure_us", "must be in [0, 1e7]");
+    if (a.packet_size != 0 && (a.packet_size < 576 || a.packet_size > 16384))
+      err("camera.aravis.packet_size", "must be 0 or in [576, 16384]");
+    if (a.socket_buffer_bytes < 0 || a.socket_buffer_bytes > (1 << 28))
+      err("camera.aravis.socket_buffer_bytes", "must be in [0, 268435456]");
+    if (!(a.pair_tolerance_ms > 0.0) || a.pair_tolerance_ms > 1000.0)
+      err("camera.aravis.pair_tolerance_ms", "must be in (0, 1000]");
+    else if (c.camera.frame_rate_hz > 0 && a.pair_tolerance_ms * 2.0 >= 1000.0 / c.camera.frame_rate_hz)
+      // Wider than half a period, a frame could pair with its neighbour's partner.
+      err("camera.aravis.pair_tolerance_ms", "must be below half the frame period (" +
+                                                 std::to_string(500.0 / c.camera.frame_rate_hz) + " ms)");
+    if (a.reconnect_after_ms < 100 || a.reconnect_after_ms > 600000)
+      err("camera.aravis.reconnect_after_ms", "must be in [100, 600000]");
+    if (a.clock_init_frames < 1 || a.clock_init_frames > 1000) err("camera.aravis.clock_init_frames", "must be in [1, 1000]");
+  }
+  if (cd == "v4l2") {
+    if (c.camera.v4l2.device.empty()) err("camera.v4l2.device", "required for camera.driver v4l2");
+    if (c.camera.v4l2.pixel_format != "GREY" && c.camera.v4l2.pixel_format != "YUYV")
+      err("camera.v4l2.pixel_format", "'" + c.camera.v4l2.pixel_format + "' is not one of GREY, YUYV");
   }
   if (c.camera.driver == "dataset" && c.camera.dataset.empty()) {
     err("camera.dataset", "required when camera.driver is dataset");
@@ -75,19 +137,29 @@ void validateDaemonConfig(const DaemonConfig& c, const std::string& origin,
   if (!(c.camera.replay_speed >= 0.0) || c.camera.replay_speed > 1000.0) {
     err("camera.replay_speed", "must be in [0, 1000] (0 = as fast as possible)");
   }
-  if (c.imu.driver != "dataset" && c.imu.driver != "lcm" && c.imu.driver != "serial" &&
+  if (c.imu.driver != "dataset" && c.imu.driver != "lcm" && c.imu.driver != "serial" && c.imu.driver != "can" &&
       c.imu.driver != "none") {
-    err("imu.driver", "'" + c.imu.driver + "' is not one of dataset, lcm, serial, none");
+    err("imu.driver", "'" + c.imu.driver + "' is not one of dataset, lcm, serial, can, none");
+  }
+  if (c.imu.driver == "serial" && (c.imu.rate_divisor < 0 || c.imu.rate_divisor > 800))
+    err("imu.rate_divisor", "must be in [0, 800]");
+  if (c.imu.driver == "can") {
+    if (c.imu.can_profile.empty()) err("imu.can_profile", "required for imu.driver can");
+    if (c.imu.candump_log.empty() && (c.imu.interface.empty() || c.imu.interface.size() >= 16))
+      err("imu.interface", "must have 1 to 15 characters (IFNAMSIZ)");
   }
   if (c.imu.driver == "dataset" && c.camera.driver != "dataset") {
     err("imu.driver", "dataset needs camera.driver dataset (the IMU comes from that folder)");
   }
-  if (c.backpressure && (c.camera.driver != "dataset" || c.imu.driver == "serial")) {
+  if (c.backpressure && (c.camera.driver != "dataset" || c.imu.driver == "serial" || c.imu.driver == "can")) {
     err("backpressure", "only for camera.driver dataset (file replay); live sources must never wait");
   }
   if (c.imu.driver == "serial" && c.imu.device.empty()) err("imu.device", "required for serial");
   if (c.imu.baud <= 0) err("imu.baud", "must be > 0");
   if (c.lcm.url.empty()) err("lcm.url", "must not be empty");
+  if (!c.lcm.input_url.empty() && c.camera.driver != "lcm" && c.imu.driver != "lcm") {
+    err("lcm.input_url", "only read by camera.driver or imu.driver lcm");
+  }
   for (auto [k, v] : {std::pair{"lcm.pose_channel", &c.lcm.pose_channel},
                       std::pair{"lcm.status_channel", &c.lcm.status_channel},
                       std::pair{"lcm.stereo_channel", &c.lcm.stereo_channel},
@@ -139,20 +211,55 @@ DaemonConfigResult parseDaemonConfig(const std::string& yaml_text, const std::st
   r.get(d, "daemon", "calibration_dataset", c.calibration_dataset);
 
   const YAML::Node cam = d["camera"];
-  r.onlyKeys(cam, "daemon.camera", {"driver", "dataset", "replay_speed"});
+  r.onlyKeys(cam, "daemon.camera",
+             {"driver", "dataset", "replay_speed", "width", "height", "frame_rate_hz", "buffers", "aravis", "v4l2",
+              "libcamera"});
   r.get(cam, "daemon.camera", "driver", c.camera.driver);
   r.get(cam, "daemon.camera", "dataset", c.camera.dataset);
   r.get(cam, "daemon.camera", "replay_speed", c.camera.replay_speed);
+  r.get(cam, "daemon.camera", "width", c.camera.width);
+  r.get(cam, "daemon.camera", "height", c.camera.height);
+  r.get(cam, "daemon.camera", "frame_rate_hz", c.camera.frame_rate_hz);
+  r.get(cam, "daemon.camera", "buffers", c.camera.buffers);
+  if (cam && cam.IsMap()) {
+    const YAML::Node av = cam["aravis"];
+    const char* ap = "daemon.camera.aravis";
+    r.onlyKeys(av, ap,
+               {"left", "right", "exposure_us", "trigger_source", "packet_size", "socket_buffer_bytes",
+                "pair_tolerance_ms", "reconnect_after_ms", "clock_init_frames"});
+    AravisSection& a = c.camera.aravis;
+    r.get(av, ap, "left", a.left);
+    r.get(av, ap, "right", a.right);
+    r.get(av, ap, "exposure_us", a.exposure_us);
+    r.get(av, ap, "trigger_source", a.trigger_source);
+    r.get(av, ap, "packet_size", a.packet_size);
+    r.get(av, ap, "socket_buffer_bytes", a.socket_buffer_bytes);
+    r.get(av, ap, "pair_tolerance_ms", a.pair_tolerance_ms);
+    r.get(av, ap, "reconnect_after_ms", a.reconnect_after_ms);
+    r.get(av, ap, "clock_init_frames", a.clock_init_frames);
+    const YAML::Node v4 = cam["v4l2"];
+    r.onlyKeys(v4, "daemon.camera.v4l2", {"device", "pixel_format"});
+    r.get(v4, "daemon.camera.v4l2", "device", c.camera.v4l2.device);
+    r.get(v4, "daemon.camera.v4l2", "pixel_format", c.camera.v4l2.pixel_format);
+    const YAML::Node lc = cam["libcamera"];
+    r.onlyKeys(lc, "daemon.camera.libcamera", {"camera_id"});
+    r.get(lc, "daemon.camera.libcamera", "camera_id", c.camera.libcamera.camera_id);
+  }
 
   const YAML::Node imu = d["imu"];
-  r.onlyKeys(imu, "daemon.imu", {"driver", "device", "baud"});
+  r.onlyKeys(imu, "daemon.imu", {"driver", "device", "baud", "rate_divisor", "interface", "can_profile", "candump_log"});
   r.get(imu, "daemon.imu", "driver", c.imu.driver);
   r.get(imu, "daemon.imu", "device", c.imu.device);
   r.get(imu, "daemon.imu", "baud", c.imu.baud);
+  r.get(imu, "daemon.imu", "rate_divisor", c.imu.rate_divisor);
+  r.get(imu, "daemon.imu", "interface", c.imu.interface);
+  r.get(imu, "daemon.imu", "can_profile", c.imu.can_profile);
+  r.get(imu, "daemon.imu", "candump_log", c.imu.candump_log);
 
   const YAML::Node lcm = d["lcm"];
-  r.onlyKeys(lcm, "daemon.lcm", {"url", "pose_channel", "status_channel", "stereo_channel", "imu_channel"});
+  r.onlyKeys(lcm, "daemon.lcm", {"url", "input_url", "pose_channel", "status_channel", "stereo_channel", "imu_channel"});
   r.get(lcm, "daemon.lcm", "url", c.lcm.url);
+  r.get(lcm, "daemon.lcm", "input_url", c.lcm.input_url);
   r.get(lcm, "daemon.lcm", "pose_channel", c.lcm.pose_channel);
   r.get(lcm, "daemon.lcm", "status_channel", c.lcm.status_channel);
   r.get(lcm, "daemon.lcm", "stereo_channel", c.lcm.stereo_channel);
@@ -207,10 +314,31 @@ std::string describe(const DaemonConfig& c) {
     << "daemon.camera.driver = " << c.camera.driver << "\n"
     << "daemon.camera.dataset = " << c.camera.dataset << "\n"
     << "daemon.camera.replay_speed = " << c.camera.replay_speed << "\n"
+    << "daemon.camera.width = " << c.camera.width << "\n"
+    << "daemon.camera.height = " << c.camera.height << "\n"
+    << "daemon.camera.frame_rate_hz = " << c.camera.frame_rate_hz << "\n"
+    << "daemon.camera.buffers = " << c.camera.buffers << "\n"
+    << "daemon.camera.aravis.left = " << c.camera.aravis.left << "\n"
+    << "daemon.camera.aravis.right = " << c.camera.aravis.right << "\n"
+    << "daemon.camera.aravis.exposure_us = " << c.camera.aravis.exposure_us << "\n"
+    << "daemon.camera.aravis.trigger_source = " << c.camera.aravis.trigger_source << "\n"
+    << "daemon.camera.aravis.packet_size = " << c.camera.aravis.packet_size << "\n"
+    << "daemon.camera.aravis.socket_buffer_bytes = " << c.camera.aravis.socket_buffer_bytes << "\n"
+    << "daemon.camera.aravis.pair_tolerance_ms = " << c.camera.aravis.pair_tolerance_ms << "\n"
+    << "daemon.camera.aravis.reconnect_after_ms = " << c.camera.aravis.reconnect_after_ms << "\n"
+    << "daemon.camera.aravis.clock_init_frames = " << c.camera.aravis.clock_init_frames << "\n"
+    << "daemon.camera.v4l2.device = " << c.camera.v4l2.device << "\n"
+    << "daemon.camera.v4l2.pixel_format = " << c.camera.v4l2.pixel_format << "\n"
+    << "daemon.camera.libcamera.camera_id = " << c.camera.libcamera.camera_id << "\n"
     << "daemon.imu.driver = " << c.imu.driver << "\n"
     << "daemon.imu.device = " << c.imu.device << "\n"
     << "daemon.imu.baud = " << c.imu.baud << "\n"
+    << "daemon.imu.rate_divisor = " << c.imu.rate_divisor << "\n"
+    << "daemon.imu.interface = " << c.imu.interface << "\n"
+    << "daemon.imu.can_profile = " << c.imu.can_profile << "\n"
+    << "daemon.imu.candump_log = " << c.imu.candump_log << "\n"
     << "daemon.lcm.url = " << c.lcm.url << "\n"
+    << "daemon.lcm.input_url = " << c.lcm.input_url << "\n"
     << "daemon.lcm.pose_channel = " << c.lcm.pose_channel << "\n"
     << "daemon.lcm.status_channel = " << c.lcm.status_channel << "\n"
     << "daemon.lcm.stereo_channel = " << c.lcm.stereo_channel << "\n"

@@ -9,24 +9,68 @@
 
 namespace seavio::daemon {
 
-/// Camera input. driver: "dataset" (EuRoC/ASL or KITTI folder, replayed with pacing) or
-/// "lcm" (seavio_lcm::stereo_t on `lcm.stereo_channel`, e.g. from lcm-logplayer).
+/// `camera.aravis`: a GigE Vision stereo pair (two cameras paired by device timestamp, free
+/// running or both on one hardware trigger line), or one camera delivering side by side.
+struct AravisSection {
+  std::string left;             ///< Aravis device id or IP address of the left camera
+  std::string right;            ///< right camera; empty = `left` delivers left | right
+  double exposure_us = 0;       ///< [us], 0 = keep the camera's setting
+  std::string trigger_source;   ///< e.g. "Line1" for a hardware-triggered pair; empty = free running
+  int packet_size = 0;          ///< GVSP packet size [bytes], 0 = camera default
+  int socket_buffer_bytes = 0;  ///< receive buffer [bytes], 0 = automatic
+  double pair_tolerance_ms = 10;  ///< left/right mapped stamps further apart are not a pair [ms]
+  int reconnect_after_ms = 1000;  ///< a camera silent this long is reopened [ms]
+  int clock_init_frames = 20;     ///< frames that settle each device clock before pairing
+};
+
+/// `camera.v4l2`: a side-by-side stereo capture device.
+struct V4l2Section {
+  std::string device = "/dev/video0";
+  std::string pixel_format = "GREY";  ///< GREY or YUYV
+};
+
+/// `camera.libcamera`: a side-by-side stereo camera behind libcamera.
+struct LibcameraSection {
+  std::string camera_id;  ///< empty = the first camera found
+};
+
+/// Camera input. driver: "dataset" (EuRoC/ASL or KITTI folder, replayed with pacing),
+/// "lcm" (seavio_lcm::stereo_t on `lcm.stereo_channel`, e.g. from lcm-logplayer), "aravis"
+/// (GigE Vision), "v4l2" or "libcamera" (when built).
 struct CameraConfig {
   std::string driver = "dataset";
   std::string dataset;        ///< dataset folder (driver "dataset")
   double replay_speed = 1.0;  ///< 1 = real time, N = N x, 0 = as fast as possible
+  /// Image size [px] per camera (aravis, 0 = keep the camera's) or of the whole
+  /// side-by-side image (v4l2, libcamera: required, even).
+  int width = 0;
+  int height = 0;
+  double frame_rate_hz = 15;  ///< free-running rate requested from the device [Hz]
+  int buffers = 8;            ///< device/stream buffers
+  AravisSection aravis;
+  V4l2Section v4l2;
+  LibcameraSection libcamera;
 };
 
 /// IMU input. driver: "dataset" (the camera's dataset), "lcm" (seavio_lcm::imu_t), "serial"
-/// (VectorNav binary), or "none" (vision only).
+/// (VectorNav binary), "can" (SocketCAN with a profile), or "none" (vision only).
 struct ImuConfig {
   std::string driver = "dataset";
   std::string device = "/dev/ttyUSB0";  ///< driver "serial"
   int baud = 921600;                    ///< driver "serial" [bit/s]
+  /// driver "serial": if > 0, configure the sensor's binary output to 800 Hz / divisor
+  /// at start; 0 keeps its stored configuration.
+  int rate_divisor = 0;
+  std::string interface = "can0";  ///< driver "can": SocketCAN interface
+  std::string can_profile;         ///< driver "can": profile YAML (config/can_profiles/)
+  std::string candump_log;         ///< driver "can": replay this candump file instead of a bus
 };
 
 struct LcmConfig {
-  std::string url = "udpm://239.255.76.67:7667?ttl=0";
+  std::string url = "udpm://239.255.76.67:7667?ttl=0";  ///< where poses and status go
+  /// Where camera/IMU driver "lcm" reads; empty = `url`. "file://LOG?speed=S" replays a
+  /// recorded log through the same sources (S = 1 real time, N = N x, 0 = as fast as possible).
+  std::string input_url;
   std::string pose_channel = "SEAVIO_POSE";
   std::string status_channel = "SEAVIO_STATUS";
   std::string stereo_channel = "SEAVIO_STEREO";
@@ -79,6 +123,9 @@ DaemonConfigResult parseDaemonConfig(const std::string& yaml_text, const std::st
 /// Checks values (ranges, driver names); appends errors prefixed with `origin`.
 void validateDaemonConfig(const DaemonConfig& c, const std::string& origin,
                           std::vector<std::string>& errors);
+
+/// Camera drivers compiled into this build, as "dataset, lcm, ..., v4l2," (trailing comma).
+std::string cameraDriversBuilt();
 
 /// Every effective value, one "daemon.key = value" per line, for the start-up log.
 std::string describe(const DaemonConfig& c);

@@ -51,4 +51,43 @@ struct HealthCounters {
   const LatencyHistogram& at(Stage s) const { return latency[static_cast<int>(s)]; }
 };
 
+/// Faults a driver counts itself below the CameraSource/ImuSource interface (issue 9):
+/// reconnects, unpaired or corrupt frames, protocol errors. Folded into status_t.
+struct DriverFaults {
+  uint64_t camera_reconnects = 0;       ///< camera reopened after it vanished
+  uint64_t camera_unpaired_frames = 0;  ///< left/right frames without a partner in tolerance
+  uint64_t camera_lost_frames = 0;      ///< device frame-id / sequence gaps
+  uint64_t camera_corrupt_frames = 0;   ///< incomplete buffers, wrong format or size
+  uint64_t imu_checksum_errors = 0;     ///< serial packets failing their CRC
+  uint64_t imu_garbage_bytes = 0;       ///< serial bytes skipped while resynchronising
+  uint64_t imu_partial_packets = 0;     ///< reads ending inside a packet (serial or CAN)
+  uint64_t imu_reconnects = 0;          ///< serial port reopened after a failure
+  uint64_t imu_bus_errors = 0;          ///< CAN error frames, bus-off, unknown ids, short frames
+  uint64_t timestamp_jumps = 0;         ///< device clocks jumping (camera and IMU)
+
+  DriverFaults& operator+=(const DriverFaults& o) {
+    camera_reconnects += o.camera_reconnects;
+    camera_unpaired_frames += o.camera_unpaired_frames;
+    camera_lost_frames += o.camera_lost_frames;
+    camera_corrupt_frames += o.camera_corrupt_frames;
+    imu_checksum_errors += o.imu_checksum_errors;
+    imu_garbage_bytes += o.imu_garbage_bytes;
+    imu_partial_packets += o.imu_partial_packets;
+    imu_reconnects += o.imu_reconnects;
+    imu_bus_errors += o.imu_bus_errors;
+    timestamp_jumps += o.timestamp_jumps;
+    return *this;
+  }
+};
+
+/// Implemented next to CameraSource/ImuSource by sources whose driver counts faults; the
+/// daemon's status thread calls it while the source's own thread reads, so implementations
+/// must be thread-safe.
+class FaultReporter {
+ public:
+  virtual ~FaultReporter() = default;
+  /// Current totals since start.
+  virtual DriverFaults faults() const = 0;
+};
+
 }  // namespace seavio::daemon

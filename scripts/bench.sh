@@ -4,7 +4,8 @@
 #   scripts/bench.sh                 all benchmarks, stage table over 60 frames
 #   SEAVIO_BENCH_FILTER=Icp scripts/bench.sh   only benchmarks matching a regex
 # Environment: SEAVIO_BUILD_DIR (default build), SEAVIO_JOBS (default 2), OUT,
-# SEAVIO_STAGE_FRAMES (default 60). For `seavio bench paper` see docs/benchmarks.md.
+# SEAVIO_STAGE_FRAMES (default 60). For `seavio bench paper` see docs/benchmarks.md; for
+# load-independent instruction counts of the hot paths, scripts/callgrind.sh.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${SEAVIO_BUILD_DIR:-build}

@@ -159,11 +159,11 @@ void printTableII(std::ostream& os, const std::vector<BenchRun>& runs) {
 
 void printMemory(std::ostream& os, const std::vector<BenchRun>& runs) {
   os << "\nMemory (issue 8: <= 300 MB after 10,000 frames, <= 10 MB per 1,000 frames over mapped ground)\n";
-  os << fmt::format("{:<8}{:<7}{:>8}{:>12}{:>12}{:>20}{:>12}\n", "variant", "data", "frames", "keyframes", "RSS [MiB]",
-                    "map/1000 fr [MiB]", "IMU-only");
+  os << fmt::format("{:<8}{:<7}{:>8}{:>12}{:>12}{:>20}{:>12}{:>10}\n", "variant", "data", "frames", "keyframes",
+                    "RSS [MiB]", "map/1000 fr [MiB]", "IMU-only", "revisits");
   for (const auto& r : runs)
-    os << fmt::format("{:<8}{:<7}{:>8}{:>12}{:>12.1f}{:>20.3f}{:>12}\n", r.variant, r.dataset, r.frames,
-                      r.map_keyframes, r.rss_mb, r.map_mb_per_1000_frames, r.imu_only_frames);
+    os << fmt::format("{:<8}{:<7}{:>8}{:>12}{:>12.1f}{:>20.3f}{:>12}{:>10}\n", r.variant, r.dataset, r.frames,
+                      r.map_keyframes, r.rss_mb, r.map_mb_per_1000_frames, r.imu_only_frames, r.revisit_corrections);
   for (const auto& r : runs)
     if (!r.plot_path.empty()) os << "error over distance: " << r.plot_path << "\n";
 }
@@ -279,6 +279,7 @@ std::vector<BenchRun> runPaperBench(const PaperBenchOptions& o) {
       summariseTimes(sr.results, r);
       r.rss_mb = residentMemoryMb().value_or(0.0);
       r.map_keyframes = static_cast<int>(sr.map_keyframes);
+      r.revisit_corrections = sr.revisit_corrections;
       r.map_mb_per_1000_frames =
           r.frames > 0 ? static_cast<double>(sr.map_bytes) / (1024.0 * 1024.0) * 1000.0 / r.frames : 0.0;
       const fs::path stem = fs::path(o.out_dir) / fmt::format("{}-{}", variant, data);
@@ -321,7 +322,7 @@ std::vector<StageRow> runStageBench(const StageBenchOptions& o) {
   std::string error;
   auto rectifier = camera::StereoRectifier::create(ds.calibration, &error);
   if (!rectifier) throw drivers::InputError(ds.root + ": calibration unusable: " + error);
-  const odometry::Frontend frontend(std::move(*rectifier), p.features, p.stereo, p.illumination);
+  const odometry::Frontend frontend(std::move(*rectifier), p.features, p.stereo, p.illumination, p.snow);
   std::vector<double> rect, surf1, surf2, stereo, n_features;
   cv::Mat left, right;
   for (std::size_t i = 0; i < global.results.size(); ++i) {

@@ -61,6 +61,7 @@ struct BenchRun {
   double rss_mb = 0;                  ///< process VmRSS after the run [MiB]
   double map_mb_per_1000_frames = 0;  ///< FrameMap::memoryBytes per 1000 frames [MiB]
   int map_keyframes = 0;
+  int revisit_corrections = 0;       ///< global: frames pulled onto older ground seen again
   std::string plot_path;              ///< error-over-distance PNG ("" if none)
 };
 

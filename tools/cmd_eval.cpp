@@ -29,6 +29,8 @@ int runEval(const EvalOptions& o) {
       // The daemon's output as recorded by lcm-logger (issue 7); damage is reported, not fatal.
       const DaemonOutputLog log = readDaemonOutputLog(o.est, o.pose_channel);
       if (log.stats.damaged()) spdlog::warn("{}", describeDamage(log.stats, o.est));
+      for (const auto& [channel, n] : log.stats.other_channels)
+        spdlog::info("{}: {} event(s) on channel {} skipped (not {})", o.est, n, channel, o.pose_channel);
       est = trajectoryFromLog(log);
       if (est.empty()) {
         spdlog::error("{}: no {} message in the LCM log", o.est, o.pose_channel);

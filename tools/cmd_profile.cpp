@@ -15,6 +15,7 @@ struct ProfileOptions {
   std::string log, plot, json;
   std::string pose_channel = "SEAVIO_POSE", status_channel = "SEAVIO_STATUS";
   double budget_ms = 66.0;
+  double from_s = 0.0, to_s = 0.0;
 };
 
 int runProfile(const ProfileOptions& o) {
@@ -26,6 +27,7 @@ int runProfile(const ProfileOptions& o) {
     return 2;
   }
   if (log.stats.damaged()) spdlog::warn("{}", describeDamage(log.stats, o.log));
+  if (o.from_s > 0 || o.to_s > 0) log = windowOf(log, o.from_s, o.to_s);
   if (log.poses.empty()) {
     spdlog::error("{}: no {} message in the LCM log", o.log, o.pose_channel);
     return 2;
@@ -52,6 +54,10 @@ const RegisterCommand kRegister("profile", [](CLI::App& app) {
   cmd->add_option("--plot", opts->plot, "write a latency timeline and histogram to this PNG");
   cmd->add_option("--json", opts->json, "write the figures and per-frame arrays to this JSON file");
   cmd->add_option("--budget-ms", opts->budget_ms, "frame budget [ms] (66 ms = 15 fps)")->check(CLI::PositiveNumber);
+  cmd->add_option("--from-s", opts->from_s, "only poses published this many seconds after the first one, or later")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--to-s", opts->to_s, "only poses published before this many seconds after the first one")
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--pose-channel", opts->pose_channel, "pose channel");
   cmd->add_option("--status-channel", opts->status_channel, "status channel");
   cmd->footer("Exit status: 0 ok (damage in the log is reported as a warning), 2 unreadable log or no pose.");

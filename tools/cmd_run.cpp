@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include <spdlog/fmt/fmt.h>
 #include <spdlog/spdlog.h>
 
 #include "core/eval/trajectory_metrics.hpp"
@@ -62,7 +63,8 @@ std::vector<eval::TimedPose> runPnpBaseline(const drivers::Dataset& ds, std::siz
   params.features.type = features::DetectorType::kSift;
   params.features.controller = features::defaultControllerParams(features::DetectorType::kSift, 500);
   params.features.max_features = 500;
-  const odometry::Frontend frontend(std::move(*rectifier), params.features, params.stereo, params.illumination);
+  const odometry::Frontend frontend(std::move(*rectifier), params.features, params.stereo, params.illumination,
+                                    params.snow);
   odometry::PnpBaselineParams bp;
   bp.threshold = params.features.controller.initial_threshold;
   odometry::PnpBaseline baseline(frontend, bp);
@@ -115,6 +117,11 @@ int run(const RunOptions& o) {
     trajectory = seq.trajectory;
     for (const OdometryResult& r : seq.results) stats.add(r);
     stats.printTable(std::cout);
+    const double per_1000 = seq.results.empty() ? 0.0 : 1000.0 / static_cast<double>(seq.results.size());
+    std::cout << fmt::format("memory: peak RSS {:.1f} MiB; map {:.2f} MiB ({:.2f} MiB per 1000 frames, {} keyframes); "
+                             "revisit corrections {}\n",
+                             seq.peak_rss_mb, seq.map_bytes / 1048576.0, seq.map_bytes / 1048576.0 * per_1000,
+                             seq.map_keyframes, seq.revisit_corrections);
     if (!o.stats.empty()) stats.writeJson(o.stats);
   }
   drivers::writeTum(o.out, trajectory);

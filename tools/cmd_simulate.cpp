@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <spdlog/spdlog.h>
 
@@ -24,6 +25,8 @@ struct SimulateOptions {
   int64_t seed = -1;
   double imu_rate = 0, frame_rate = 0, altitude = 0, speed = 0, tilt_deg = 0;
   bool snow = false, unlimited_turn_rate = false, constant_depth = false, no_sway = false;
+  std::vector<std::string> vision_loss;
+  double vision_loss_altitude = 0;
 };
 
 void runSimulate(const SimulateOptions& o, CLI::App& cmd) {
@@ -42,6 +45,15 @@ void runSimulate(const SimulateOptions& o, CLI::App& cmd) {
   if (o.unlimited_turn_rate) c.trajectory.unlimited_turn_rate = true;
   if (o.constant_depth) c.trajectory.follow_altitude = false;
   if (o.no_sway) c.trajectory.roll_amplitude_deg = c.trajectory.pitch_amplitude_deg = 0;
+  if (cmd.count("--frames") && c.frames >= 1) {
+    // Cutting a preset drops its stretches that would start after the last frame (a stretch
+    // given on the command line there is still an error).
+    auto& st = c.vision_loss.stretches;
+    const double last_s = (c.frames - 1) / c.frame_rate_hz;
+    std::erase_if(st, [last_s](const simulate::VisionLossStretch& v) { return v.start_s > last_s; });
+  }
+  for (const auto& v : o.vision_loss) c.vision_loss.stretches.push_back(simulate::parseVisionLoss(v));
+  if (cmd.count("--vision-loss-altitude")) c.vision_loss.altitude_m = o.vision_loss_altitude;
   simulate::validate(c);
 
   const bool tty = isatty(STDERR_FILENO) != 0;
@@ -64,6 +76,9 @@ void runSimulate(const SimulateOptions& o, CLI::App& cmd) {
                c.trajectory.altitude_m, c.rig.tilt_deg, c.snow.enabled ? "on" : "off",
                c.trajectory.unlimited_turn_rate ? "unlimited" : "rate-limited",
                c.trajectory.follow_altitude ? "altitude-following" : "constant depth", o.out);
+  for (const auto& v : c.vision_loss.stretches)
+    spdlog::info("simulate: vision loss '{}' from {} s for {} s", simulate::visionLossName(v.kind), v.start_s,
+                 v.duration_s);
   const auto stats = simulate::writeSequence(c, o.out, o.force, progress);
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   spdlog::info("simulate: wrote {} stereo frames, {} IMU samples, path {:.1f} m, {:.0f} snow particles per image, "
@@ -74,7 +89,7 @@ void runSimulate(const SimulateOptions& o, CLI::App& cmd) {
 const RegisterCommand kRegister{"simulate", [](CLI::App& app) {
   auto opts = std::make_shared<SimulateOptions>();
   CLI::App* cmd = app.add_subcommand("simulate", "Render a synthetic stereo-inertial AUV survey (EuRoC/ASL layout)");
-  cmd->add_option("preset", opts->preset, "paper-plain | paper-snow | short-plain | short-snow")->required();
+  cmd->add_option("preset", opts->preset, "paper-plain | paper-snow | short-plain | short-snow | short-outage")->required();
   cmd->add_option("--out,-o", opts->out, "output dataset folder")->required();
   cmd->add_flag("--force", opts->force, "overwrite an existing dataset in the output folder");
   cmd->add_option("--frames", opts->frames, "number of stereo frames (cuts the preset)");
@@ -88,6 +103,13 @@ const RegisterCommand kRegister{"simulate", [](CLI::App& app) {
   cmd->add_flag("--unlimited-turn-rate", opts->unlimited_turn_rate, "the paper's near-instant turns");
   cmd->add_flag("--constant-depth", opts->constant_depth, "hold depth instead of following the relief");
   cmd->add_flag("--no-sway", opts->no_sway, "no roll/pitch sway");
+  cmd->add_option("--vision-loss", opts->vision_loss,
+                  "KIND:START_S:DURATION_S, repeatable; KIND = blackout | turbidity | featureless | altitude "
+                  "(START_S in seconds after the first frame)")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  cmd->add_option("--vision-loss-altitude", opts->vision_loss_altitude,
+                  "floor distance in 'altitude' stretches [m] (default 15)");
   cmd->callback([opts, cmd] { runSimulate(*opts, *cmd); });
 }};
 

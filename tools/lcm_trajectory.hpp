@@ -21,6 +21,10 @@ struct LogScanStats {
   uint64_t skipped_bytes = 0;       ///< bytes skipped by those resyncs
   uint64_t truncated_tail_bytes = 0;  ///< bytes after the last complete event
   std::map<std::string, uint64_t> other_channels;  ///< events on channels not asked for
+  /// Where each damage was: "FILE: byte offset N, after event K: what" (decode failures name
+  /// the channel and event number); at most kMaxIncidents kept, the counters hold the rest.
+  std::vector<std::string> incidents;
+  static constexpr std::size_t kMaxIncidents = 50;
   /// True if anything was damaged or undecodable (not counting other channels).
   bool damaged() const { return decode_failures + resyncs + truncated_tail_bytes > 0; }
 };

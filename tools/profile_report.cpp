@@ -1,10 +1,12 @@
 #include "tools/profile_report.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <stdexcept>
 
 #include <opencv2/imgcodecs.hpp>
@@ -97,6 +99,22 @@ LatencyStats latencyStats(const std::string& name, const std::vector<double>& v)
   return s;
 }
 
+DaemonOutputLog windowOf(const DaemonOutputLog& log, double from_s, double to_s) {
+  DaemonOutputLog out;
+  out.stats = log.stats;
+  if (log.poses.empty()) return out;
+  const int64_t t0 = log.poses.front().msg.publish_t_ns;
+  const auto inside = [&](int64_t t_ns) {
+    const double s = static_cast<double>(t_ns - t0) * 1e-9;
+    return s >= from_s && (to_s <= 0 || s < to_s);
+  };
+  for (const LoggedPose& p : log.poses)
+    if (inside(p.msg.publish_t_ns)) out.poses.push_back(p);
+  for (const seavio_lcm::status_t& s : log.statuses)
+    if (inside(s.t_ns)) out.statuses.push_back(s);
+  return out;
+}
+
 ProfileReport computeProfile(const DaemonOutputLog& log, const ProfileParams& params) {
   ProfileReport r;
   r.params = params;
@@ -107,7 +125,11 @@ ProfileReport computeProfile(const DaemonOutputLog& log, const ProfileParams& pa
     const int64_t age = p.msg.publish_t_ns - p.msg.t_ns;
     if (age < 0 || age > max_ns) same_clock = false;
   }
-  r.end_to_end_basis = same_clock ? "capture_to_publish" : "processing (lower bound)";
+  bool have_recv = !log.poses.empty();
+  for (const LoggedPose& p : log.poses) have_recv = have_recv && p.msg.recv_t_ns > 0;
+  r.end_to_end_basis = same_clock ? "capture_to_publish" : have_recv ? "receive_to_publish" : "processing (lower bound)";
+  std::vector<std::string> stage_order;
+  std::map<std::string, std::vector<double>> stage_values;
   std::vector<double> proc, e2e, interval;
   const int64_t pub0 = log.poses.empty() ? 0 : log.poses.front().msg.publish_t_ns;
   for (std::size_t i = 0; i < log.poses.size(); ++i) {
@@ -117,7 +139,24 @@ ProfileReport computeProfile(const DaemonOutputLog& log, const ProfileParams& pa
     f.t_ns = m.t_ns;
     f.publish_s = static_cast<double>(m.publish_t_ns - pub0) * 1e-9;
     f.processing_ms = m.processing_ms;
-    f.end_to_end_ms = same_clock ? static_cast<double>(m.publish_t_ns - m.t_ns) * 1e-6 : m.processing_ms;
+    f.end_to_end_ms = same_clock   ? static_cast<double>(m.publish_t_ns - m.t_ns) * 1e-6
+                      : have_recv ? static_cast<double>(m.publish_t_ns - m.recv_t_ns) * 1e-6
+                                  : m.processing_ms;
+    const std::size_t ns = std::min(m.stage_names.size(), m.stage_ms.size());
+    for (std::size_t k = 0; k < ns; ++k) {
+      auto [it, inserted] = stage_values.try_emplace(m.stage_names[k]);
+      if (inserted) {
+        // A stage first seen later (the odometry's own stages are absent on the first frame)
+        // goes right after the stage preceding it in this frame, keeping pipeline order.
+        auto at = stage_order.begin();
+        if (k > 0) {
+          at = std::find(stage_order.begin(), stage_order.end(), m.stage_names[k - 1]);
+          if (at != stage_order.end()) ++at;
+        }
+        stage_order.insert(at, m.stage_names[k]);
+      }
+      it->second.push_back(m.stage_ms[k]);
+    }
     if (f.end_to_end_ms > params.budget_ms) ++r.over_budget;
     proc.push_back(f.processing_ms);
     e2e.push_back(f.end_to_end_ms);
@@ -135,6 +174,16 @@ ProfileReport computeProfile(const DaemonOutputLog& log, const ProfileParams& pa
   r.per_frame.push_back(latencyStats("process", proc));
   r.per_frame.push_back(latencyStats("publish_interval", interval));
   r.per_frame.push_back(latencyStats("end_to_end", e2e));
+  for (const std::string& name : stage_order) r.stages.push_back(latencyStats(name, stage_values[name]));
+  for (std::size_t i = 0; i < r.frames.size(); ++i) {
+    const seavio_lcm::pose_t& m = log.poses[i].msg;
+    std::vector<double>& v = r.frames[i].stage_ms;
+    v.assign(stage_order.size(), 0.0);
+    for (std::size_t k = 0; k < std::min(m.stage_names.size(), m.stage_ms.size()); ++k) {
+      const auto at = std::find(stage_order.begin(), stage_order.end(), m.stage_names[k]);
+      if (at != stage_order.end()) v[static_cast<std::size_t>(at - stage_order.begin())] = m.stage_ms[k];
+    }
+  }
   if (!log.statuses.empty()) {
     r.has_status = true;
     r.last_status = log.statuses.back();
@@ -165,13 +214,22 @@ void printProfile(std::ostream& os, const ProfileReport& r) {
        << "\n";
   };
   for (const LatencyStats& s : r.per_frame) row(s);
+  if (!r.stages.empty()) {
+    os << "\nper stage (pose messages, every frame)\n";
+    for (const LatencyStats& s : r.stages) row(s);
+  } else {
+    os << "\nposes carry no per-stage times (pose_t version 1)\n";
+  }
   if (r.has_status) {
     os << "\ndaemon stages (last status, histogram: p50/p99 only)\n";
     for (const LatencyStats& s : r.daemon_stages) row(s);
   } else {
     os << "\nno status message in the log: per-stage figures unavailable\n";
   }
-  if (r.end_to_end_basis != "capture_to_publish")
+  if (r.end_to_end_basis == "receive_to_publish")
+    os << "note: capture stamps are not on the daemon clock (replayed dataset), so per-frame end_to_end runs\n"
+          "      from the daemon's receipt of the frame to publication\n";
+  else if (r.end_to_end_basis != "capture_to_publish")
     os << "note: capture stamps are not on the daemon clock (replayed dataset), so per-frame end_to_end is the\n"
           "      processing time; the daemon's end_to_end stage (acquisition to publish) includes queueing\n";
   os << "\nframes over the " << fmt("%.1f", r.params.budget_ms) << " ms budget: " << r.over_budget << " of "
@@ -204,6 +262,11 @@ void writeProfileJson(const std::string& path, const ProfileReport& r) {
   for (std::size_t i = 0; i < r.per_frame.size(); ++i) {
     out << (i ? ", " : "");
     writeStatsJson(out, r.per_frame[i]);
+  }
+  out << "],\n  \"stages\": [";
+  for (std::size_t i = 0; i < r.stages.size(); ++i) {
+    out << (i ? ", " : "");
+    writeStatsJson(out, r.stages[i]);
   }
   out << "],\n  \"daemon_stages\": [";
   for (std::size_t i = 0; i < r.daemon_stages.size(); ++i) {
@@ -252,6 +315,26 @@ void writeProfilePlot(const std::string& path_png, const ProfileReport& r) {
     cv::line(img, tl.px(x0, r.frames[i - 1].end_to_end_ms), tl.px(x1, r.frames[i].end_to_end_ms), kBlue, 1,
              cv::LINE_AA);
   }
+  // Stages stacked: line k is the sum of stages 0..k, so the band between two lines is
+  // where that stage's milliseconds went.
+  static const std::array<cv::Scalar, 8> kStageColours = {
+      cv::Scalar(180, 180, 180), cv::Scalar(0, 160, 255), cv::Scalar(200, 0, 200), cv::Scalar(0, 200, 200),
+      cv::Scalar(160, 80, 0),    cv::Scalar(0, 100, 0),   cv::Scalar(100, 100, 255), cv::Scalar(90, 60, 30)};
+  std::vector<double> prev_cum, cum;
+  for (std::size_t i = 0; i < r.frames.size(); ++i) {
+    cum.assign(r.stages.size(), 0.0);
+    double acc = 0;
+    for (std::size_t k = 0; k < r.stages.size() && k < r.frames[i].stage_ms.size(); ++k) cum[k] = acc += r.frames[i].stage_ms[k];
+    if (i > 0) {
+      for (std::size_t k = 0; k < cum.size(); ++k)
+        cv::line(img, tl.px(static_cast<double>(i - 1), prev_cum[k]), tl.px(static_cast<double>(i), cum[k]),
+                 kStageColours[k % kStageColours.size()], 1, cv::LINE_AA);
+    }
+    prev_cum = cum;
+  }
+  for (std::size_t k = 0; k < r.stages.size(); ++k)
+    cv::putText(img, "+" + r.stages[k].name, {tl.area.x + 8, tl.area.y + 18 + 16 * static_cast<int>(k)}, kFont, 0.42,
+                kStageColours[k % kStageColours.size()], 1, cv::LINE_AA);
   cv::putText(img, "end to end", {tl.area.x + tl.area.width - 200, tl.area.y + 22}, kFont, 0.5, kBlue, 1, cv::LINE_AA);
   cv::putText(img, "processing", {tl.area.x + tl.area.width - 200, tl.area.y + 44}, kFont, 0.5, kGreen, 1,
               cv::LINE_AA);

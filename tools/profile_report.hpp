@@ -4,12 +4,15 @@
 /// What the messages carry decides what can be measured:
 ///  - every pose_t has the frame's capture stamp `t_ns`, its publication time `publish_t_ns`
 ///    and the estimator's wall time `processing_ms`: these give exact per-frame figures;
+///  - pose_t version 2 adds the receive time `recv_t_ns` and the frame's own stage split
+///    (stage_names/stage_ms): these give exact per-stage p50/p90/p99/max;
 ///  - status_t carries the daemon's own per-stage histograms (rectify ... icp, queue,
 ///    process, publish, end_to_end, capture_to_publish) as p50/p99 only, 5 % bins: the
 ///    last status message of the log is reported as is.
 /// Capture-to-publish per frame is only defined when the source stamps frames on the
 /// daemon's monotonic clock (live drivers); replayed datasets keep their own epoch, and then
-/// the per-frame end-to-end figure falls back to the estimator time (a lower bound).
+/// the per-frame end-to-end figure is receive to publish (version 2 poses), or the estimator
+/// time as a lower bound (version 1 poses).
 #include <cstdint>
 #include <ostream>
 #include <string>
@@ -33,7 +36,10 @@ struct FrameTiming {
   int64_t t_ns = 0;             ///< capture stamp [ns]
   double publish_s = 0;         ///< publication time since the first pose [s]
   double processing_ms = 0;     ///< estimator wall time [ms]
-  double end_to_end_ms = 0;     ///< capture to publish [ms], or processing_ms (see basis)
+  double end_to_end_ms = 0;     ///< capture (or receive) to publish [ms], see end_to_end_basis
+  /// This frame's stage times [ms] in the order of ProfileReport::stages; 0 where the frame
+  /// lacks the stage.
+  std::vector<double> stage_ms;
 };
 
 struct ProfileParams {
@@ -47,9 +53,12 @@ struct ProfileReport {
   ProfileParams params;
   std::vector<FrameTiming> frames;          ///< in log order
   std::vector<LatencyStats> per_frame;      ///< "process", "publish_interval", "end_to_end"
+  /// Per-frame stages from the poses' stage_names/stage_ms, in order of first appearance
+  /// (empty for version 1 poses).
+  std::vector<LatencyStats> stages;
   std::vector<LatencyStats> daemon_stages;  ///< from the last status message (may be empty)
   /// "capture_to_publish" if every frame's stamps share the daemon clock, else
-  /// "processing (lower bound)".
+  /// "receive_to_publish" if every pose carries recv_t_ns, else "processing (lower bound)".
   std::string end_to_end_basis;
   uint64_t over_budget = 0;        ///< frames whose end-to-end figure exceeds the budget
   uint64_t seq_gaps = 0;           ///< frames missing from the pose sequence numbers
@@ -65,6 +74,11 @@ double percentile(std::vector<double> v, double q);
 /// Stats of `v` [ms] under `name`.
 LatencyStats latencyStats(const std::string& name, const std::vector<double>& v);
 
+/// The poses published in [from_s, to_s) seconds after the first pose's publication, and
+/// the status messages of that span (same daemon clock); `to_s` <= 0 means to the end. For
+/// comparing the first and last minutes of a soak run.
+DaemonOutputLog windowOf(const DaemonOutputLog& log, double from_s, double to_s);
+
 ProfileReport computeProfile(const DaemonOutputLog& log, const ProfileParams& params = {});
 
 /// Console table: per-frame figures, daemon stages, budget and drop counts, log damage.
@@ -73,8 +87,8 @@ void printProfile(std::ostream& os, const ProfileReport& r);
 /// The same as JSON plus the per-frame arrays. Throws std::runtime_error naming the path.
 void writeProfileJson(const std::string& path, const ProfileReport& r);
 
-/// 1200 x 800 PNG: latency timeline (end-to-end and processing per frame, budget line) over
-/// a histogram of the end-to-end figure. Throws std::runtime_error naming the path.
+/// 1200 x 800 PNG: latency timeline (end-to-end and processing per frame, the stages stacked
+/// as cumulative lines, budget line) over a histogram of the end-to-end figure. Throws std::runtime_error naming the path.
 void writeProfilePlot(const std::string& path_png, const ProfileReport& r);
 
 }  // namespace seavio::tools

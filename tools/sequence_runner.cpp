@@ -1,5 +1,7 @@
 #include "tools/sequence_runner.hpp"
 
+#include <sys/resource.h>
+
 #include <algorithm>
 #include <chrono>
 #include <span>
@@ -39,7 +41,10 @@ SequenceRun runSequence(const drivers::Dataset& ds, const odometry::OdometryPara
   }
   out.map_keyframes = odo.frameMap().size();
   out.map_points = odo.frameMap().pointCount();
-  out.map_bytes = odo.frameMap().memoryBytes();
+  out.map_bytes = odo.mapMemoryBytes();
+  out.revisit_corrections = odo.revisitCorrections();
+  rusage usage{};
+  if (getrusage(RUSAGE_SELF, &usage) == 0) out.peak_rss_mb = static_cast<double>(usage.ru_maxrss) / 1024.0;
   return out;
 }
 

@@ -21,7 +21,9 @@ struct SequenceRun {
   std::vector<OdometryResult> results;      ///< per frame, stage times and quality included
   std::size_t map_keyframes = 0;            ///< keyframes in the global map at the end
   std::size_t map_points = 0;               ///< points stored in the map at the end
-  std::size_t map_bytes = 0;                ///< FrameMap::memoryBytes() at the end [bytes]
+  std::size_t map_bytes = 0;                ///< Odometry::mapMemoryBytes() at the end [bytes]
+  int revisit_corrections = 0;              ///< global mode: frames pulled onto older ground seen again
+  double peak_rss_mb = 0;                   ///< process peak resident size after the run [MiB] (getrusage)
 };
 
 /// Monotonic wall clock [ns] (std::chrono::steady_clock), the clock the stage times use.

@@ -14,11 +14,17 @@ void IntegralImage::compute(const cv::Mat& gray8) {
   width_ = gray8.cols;
   height_ = gray8.rows;
   const std::size_t stride = static_cast<std::size_t>(width_) + 1;
-  table_.assign(stride * (static_cast<std::size_t>(height_) + 1), 0u);
+  const std::size_t entries = stride * (static_cast<std::size_t>(height_) + 1);
+  if (entries > capacity_) {
+    table_.reset(new uint32_t[entries]);
+    capacity_ = entries;
+  }
+  std::fill(table_.get(), table_.get() + stride, 0u);  // row 0
   for (int y = 0; y < height_; ++y) {
     const uint8_t* src = gray8.ptr<uint8_t>(y);
-    const uint32_t* above = table_.data() + static_cast<std::size_t>(y) * stride;
-    uint32_t* row = table_.data() + static_cast<std::size_t>(y + 1) * stride;
+    const uint32_t* above = table_.get() + static_cast<std::size_t>(y) * stride;
+    uint32_t* row = table_.get() + static_cast<std::size_t>(y + 1) * stride;
+    row[0] = 0u;  // column 0
     uint32_t run = 0;
     for (int x = 0; x < width_; ++x) {
       run += src[x];

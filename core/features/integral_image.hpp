@@ -3,7 +3,7 @@
 /// box sum in four reads, which makes SURF's box filters cost the same at every scale.
 #include <cstddef>
 #include <cstdint>
-#include <vector>
+#include <memory>
 
 #include <opencv2/core.hpp>
 
@@ -19,7 +19,8 @@ class IntegralImage {
   /// Builds the table of `gray8` (CV_8UC1; throws std::invalid_argument for another type).
   explicit IntegralImage(const cv::Mat& gray8) { compute(gray8); }
 
-  /// Rebuilds the table, reusing the buffer when the size is unchanged.
+  /// Rebuilds the table, reusing the buffer when it is large enough. Every entry is written
+  /// once (no zero-fill pass).
   void compute(const cv::Mat& gray8);
 
   int width() const { return width_; }    ///< source width [px]
@@ -27,7 +28,7 @@ class IntegralImage {
   /// Row stride of the table in elements (width() + 1).
   std::ptrdiff_t stride() const { return width_ + 1; }
   /// Pointer to S(0, 0); S(x, y) is data()[y * stride() + x].
-  const uint32_t* data() const { return table_.data(); }
+  const uint32_t* data() const { return table_.get(); }
   /// S(x, y), 0 <= x <= width(), 0 <= y <= height().
   uint32_t at(int x, int y) const { return table_[static_cast<std::size_t>(y) * (width_ + 1) + x]; }
 
@@ -38,7 +39,8 @@ class IntegralImage {
  private:
   int width_ = 0;
   int height_ = 0;
-  std::vector<uint32_t> table_;
+  std::size_t capacity_ = 0;             // entries allocated
+  std::unique_ptr<uint32_t[]> table_;  // uninitialised until compute() writes it
 };
 
 }  // namespace seavio::features

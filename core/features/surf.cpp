@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <stdexcept>
 
 #include "core/features/integral_image.hpp"
@@ -36,10 +37,11 @@ struct Box {
 /// The three box filters of one scale (Bay 2008, Fig. 1): lobe length l = size / 3.
 struct HessianFilter {
   Box xx_all, xx_mid, yy_all, yy_mid, xy_tl, xy_tr, xy_bl, xy_br;
+  int size = 0;             // filter side [px]
   float inv_lobe_area = 0;  // 1 / (l (2l - 1)): normalise by filter area (scale invariance)
   float inv_xy_area = 0;    // 1 / l^2
 
-  HessianFilter(int size, std::ptrdiff_t stride) {
+  HessianFilter(int side, std::ptrdiff_t stride) : size(side) {
     const int l = size / 3;
     const int h = (size - 1) / 2;
     const int m = (l - 1) / 2;
@@ -86,6 +88,117 @@ inline void hessianRow(const HessianFilter& f, const uint32_t* base, std::ptrdif
   }
 }
 
+/// hessianRow for a lobe length L known at compile time: the box corners lie on ten table
+/// rows, so ten row pointers plus constant column offsets replace 32 runtime offsets (which
+/// do not fit in registers), and the unit-step loop vectorises without spilling. Same integer
+/// arithmetic (exact modulo 2^32) and float operations as hessianRow: bit-identical output.
+template <int L, bool kUnitStep>
+void hessianRowFixed(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t stride,
+                     std::ptrdiff_t step_arg, int n, float* out) {
+  constexpr int H = (3 * L - 1) / 2, M = (L - 1) / 2;
+  const std::ptrdiff_t step = kUnitStep ? 1 : step_arg;
+  const uint32_t* xr0 = base - (L - 1) * stride;  // xx rows
+  const uint32_t* xr1 = base + L * stride;
+  const uint32_t* ya0 = base - H * stride;        // yy, outer box rows
+  const uint32_t* ya1 = base + (H + 1) * stride;
+  const uint32_t* ym0 = base - M * stride;        // yy, middle box rows
+  const uint32_t* ym1 = base + (M + 1) * stride;
+  const uint32_t* q0 = base - L * stride;         // xy rows
+  const uint32_t* q1 = base;
+  const uint32_t* q2 = base + stride;
+  const uint32_t* q3 = base + (L + 1) * stride;
+  const float wl = f.inv_lobe_area, wxy = f.inv_xy_area * kDxyWeight;
+  for (int j = 0; j < n; ++j) {
+    const std::ptrdiff_t c = j * step;
+    const uint32_t xx_all = xr1[c + H + 1] - xr0[c + H + 1] - xr1[c - H] + xr0[c - H];
+    const uint32_t xx_mid = xr1[c + M + 1] - xr0[c + M + 1] - xr1[c - M] + xr0[c - M];
+    const uint32_t yy_all = ya1[c + L] - ya0[c + L] - ya1[c - (L - 1)] + ya0[c - (L - 1)];
+    const uint32_t yy_mid = ym1[c + L] - ym0[c + L] - ym1[c - (L - 1)] + ym0[c - (L - 1)];
+    const uint32_t tl = q1[c] - q0[c] - q1[c - L] + q0[c - L];
+    const uint32_t tr = q1[c + L + 1] - q0[c + L + 1] - q1[c + 1] + q0[c + 1];
+    const uint32_t bl = q3[c] - q2[c] - q3[c - L] + q2[c - L];
+    const uint32_t br = q3[c + L + 1] - q2[c + L + 1] - q3[c + 1] + q2[c + 1];
+    const int32_t xx = static_cast<int32_t>(xx_all - 3u * xx_mid);
+    const int32_t yy = static_cast<int32_t>(yy_all - 3u * yy_mid);
+    const int32_t xy = static_cast<int32_t>(tl + br - tr - bl);
+    const float dxx = static_cast<float>(xx) * wl, dyy = static_cast<float>(yy) * wl;
+    const float dxy = static_cast<float>(xy) * wxy;
+    out[j] = dxx * dyy - dxy * dxy;
+  }
+}
+
+/// det(H) along a grid row with the fastest kernel for the filter (see hessianRowFixed).
+void hessianRowAny(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t stride,
+                   std::ptrdiff_t step, int n, float* out) {
+  const int l = f.size / 3;
+#define SEAVIO_SURF_FIXED(LOBE)                                          \
+  case LOBE:                                                             \
+    if (step == 1) {                                                     \
+      hessianRowFixed<LOBE, true>(f, base, stride, 1, n, out);           \
+    } else {                                                             \
+      hessianRowFixed<LOBE, false>(f, base, stride, step, n, out);       \
+    }                                                                    \
+    return;
+  // Lobes of the middle layers (the ones computed in full) of octaves 0-3, two layers each.
+  switch (l) {
+    SEAVIO_SURF_FIXED(5)
+    SEAVIO_SURF_FIXED(7)
+    SEAVIO_SURF_FIXED(9)
+    SEAVIO_SURF_FIXED(13)
+    SEAVIO_SURF_FIXED(17)
+    SEAVIO_SURF_FIXED(25)
+    SEAVIO_SURF_FIXED(33)
+    SEAVIO_SURF_FIXED(49)
+    default: break;
+  }
+#undef SEAVIO_SURF_FIXED
+  if (step == 1) {
+    hessianRow(f, base, 1, n, out);
+  } else {
+    hessianRow(f, base, step, n, out);
+  }
+}
+
+/// det(H) at one filter centre `p`: the arithmetic of hessianRow, so a response computed
+/// on demand is bit-identical to one from a full layer.
+inline float hessianAt(const HessianFilter& f, const uint32_t* p) {
+  const auto box = [p](const Box& b) { return p[b.a] - p[b.b] - p[b.c] + p[b.d]; };
+  const int32_t xx = static_cast<int32_t>(box(f.xx_all) - 3u * box(f.xx_mid));
+  const int32_t yy = static_cast<int32_t>(box(f.yy_all) - 3u * box(f.yy_mid));
+  const int32_t xy = static_cast<int32_t>(box(f.xy_tl) + box(f.xy_br) - box(f.xy_tr) - box(f.xy_bl));
+  const float wl = f.inv_lobe_area, wxy = f.inv_xy_area * kDxyWeight;
+  const float dxx = static_cast<float>(xx) * wl, dyy = static_cast<float>(yy) * wl;
+  const float dxy = static_cast<float>(xy) * wxy;
+  return dxx * dyy - dxy * dxy;
+}
+
+#if defined(__GNUC__)
+#define SEAVIO_SURF_INLINE inline __attribute__((always_inline))
+#else
+#define SEAVIO_SURF_INLINE inline
+#endif
+
+/// Mean grey level of the box x box cell whose top-left corner is at the sub-pixel position
+/// (fx, fy) = (x + ax, y + ay): bilinear blend of the four integer placements, each an exact
+/// integer box sum. Requires x, y >= 0, x + box + 1 <= width, y + box + 1 <= height.
+SEAVIO_SURF_INLINE float boxMeanInside(const uint32_t* sum, std::ptrdiff_t stride, int x, int y, float ax,
+                                       float ay, int box, float inv_box2) {
+  const uint32_t* p = sum + static_cast<std::ptrdiff_t>(y) * stride + x;
+  const std::ptrdiff_t down = box * stride;
+  const auto bs = [&](std::ptrdiff_t o) {
+    const uint32_t* q = p + o;
+    return static_cast<float>(static_cast<int32_t>(q[down + box] - q[box] - q[down] + q[0]));
+  };
+  return ((1.f - ay) * ((1.f - ax) * bs(0) + ax * bs(1)) + ay * ((1.f - ax) * bs(stride) + ax * bs(stride + 1))) *
+         inv_box2;
+}
+
+/// floor() as an int without the libm call (x86-64 has no inline floor before SSE4.1).
+inline int floorInt(float x) {
+  const int i = static_cast<int>(x);
+  return i - (static_cast<float>(i) > x);
+}
+
 /// Valid grid index range [lo, hi] of a filter of side `size` sampled every `step` pixels
 /// along an axis of `extent` pixels (the whole filter inside the image).
 inline void validRange(int size, int step, int extent, int& lo, int& hi) {
@@ -112,8 +225,8 @@ bool interpolate(const float n[3][9], cv::Vec3d& offset) {
 }
 
 inline float bilinear(const cv::Mat& img, float x, float y) {
-  const int ix = static_cast<int>(std::floor(x));
-  const int iy = static_cast<int>(std::floor(y));
+  const int ix = floorInt(x);
+  const int iy = floorInt(y);
   if (ix >= 0 && iy >= 0 && ix < img.cols - 1 && iy < img.rows - 1) {
     const float a = x - static_cast<float>(ix), b = y - static_cast<float>(iy);
     const uint8_t* p = img.ptr<uint8_t>(iy) + ix;
@@ -194,7 +307,13 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
   const int n_layers = params_.octave_layers + 2;
 
   // --- Detection: det(H) over octaves and layers, 3x3x3 maxima, interpolation (Bay 2008, 3).
-  std::vector<float> layers;
+  // Only the middle layers of an octave (those that can hold a maximum) are computed in full;
+  // the bottom and top layers serve only as neighbours, so their 3x3 patches are evaluated on
+  // demand at the few positions that survive the threshold and the in-layer and full-layer
+  // comparisons. That halves the box-filter work of the default 4-layer octave.
+  const int n_full = n_layers - 2;
+  std::size_t plane_capacity = 0;
+  std::unique_ptr<float[]> layers;  // uninitialised: only the valid ranges are written and read
   for (int octave = 0; octave < params_.octaves; ++octave) {
     const int step = 1 << octave;
     const int rows = (height - 1) / step + 1, cols = (width - 1) / step + 1;
@@ -204,60 +323,74 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
     validRange(filterSize(octave, n_layers - 1), step, width, top_j0, top_j1);
     if (top_i1 - top_i0 < 2 || top_j1 - top_j0 < 2) break;
     const std::size_t plane = static_cast<std::size_t>(rows) * cols;
-    if (layers.size() < plane * n_layers) layers.resize(plane * n_layers);
+    if (plane * n_full > plane_capacity) {
+      plane_capacity = plane * n_full;
+      layers.reset(new float[plane_capacity]);
+    }
+    std::vector<HessianFilter> filters;
+    filters.reserve(n_layers);
+    for (int layer = 0; layer < n_layers; ++layer) filters.emplace_back(filterSize(octave, layer), stride);
+    const auto centre = [&](int i, int j) {
+      return sum + static_cast<std::ptrdiff_t>(i) * step * stride + static_cast<std::ptrdiff_t>(j) * step;
+    };
 
-    for (int layer = 0; layer < n_layers; ++layer) {
-      const int size = filterSize(octave, layer);
-      const HessianFilter filter(size, stride);
+    for (int layer = 1; layer <= n_full; ++layer) {
       int i0, i1, j0, j1;
-      validRange(size, step, height, i0, i1);
-      validRange(size, step, width, j0, j1);
-      float* det = layers.data() + plane * layer;
+      validRange(filters[layer].size, step, height, i0, i1);
+      validRange(filters[layer].size, step, width, j0, j1);
+      float* det = layers.get() + plane * (layer - 1);
       for (int i = i0; i <= i1; ++i) {
-        const uint32_t* base = sum + static_cast<std::ptrdiff_t>(i) * step * stride + j0 * step;
+        const uint32_t* base = centre(i, j0);
         float* out = det + static_cast<std::size_t>(i) * cols + j0;
-        if (step == 1) {
-          hessianRow(filter, base, 1, j1 - j0 + 1, out);
-        } else {
-          hessianRow(filter, base, step, j1 - j0 + 1, out);
-        }
+        hessianRowAny(filters[layer], base, stride, step, j1 - j0 + 1, out);
       }
     }
 
-    for (int layer = 1; layer + 1 < n_layers; ++layer) {
+    for (int layer = 1; layer <= n_full; ++layer) {
       // The layer above is the largest filter of the triple, so its valid range bounds all.
       int i0, i1, j0, j1;
-      validRange(filterSize(octave, layer + 1), step, height, i0, i1);
-      validRange(filterSize(octave, layer + 1), step, width, j0, j1);
-      const float* below = layers.data() + plane * (layer - 1);
-      const float* here = layers.data() + plane * layer;
-      const float* above = layers.data() + plane * (layer + 1);
-      const int size = filterSize(octave, layer);
-      const int ds = size - filterSize(octave, layer - 1);
+      validRange(filters[layer + 1].size, step, height, i0, i1);
+      validRange(filters[layer + 1].size, step, width, j0, j1);
+      const float* here = layers.get() + plane * (layer - 1);
+      // Neighbour planes: 0 below, 2 above; null when that layer is evaluated on demand.
+      const float* full[3] = {layer - 1 >= 1 ? here - plane : nullptr, here,
+                              layer + 1 <= n_full ? here + plane : nullptr};
+      const int size = filters[layer].size;
+      const int ds = size - filters[layer - 1].size;
       for (int i = i0 + 1; i <= i1 - 1; ++i) {
+        const float* row = here + static_cast<std::size_t>(i) * cols;
         for (int j = j0 + 1; j <= j1 - 1; ++j) {
-          const std::size_t at = static_cast<std::size_t>(i) * cols + j;
-          const float v = here[at];
+          const float v = row[j];
           if (!(v > threshold)) continue;
+          // Cheapest first: the 8 neighbours in this layer (rows above and below in memory).
+          const float* up = row - cols;
+          const float* dn = row + cols;
+          if (!(v > up[j - 1] && v > up[j] && v > up[j + 1] && v > row[j - 1] && v > row[j + 1] &&
+                v > dn[j - 1] && v > dn[j] && v > dn[j + 1]))
+            continue;
           float n[3][9];
           bool is_max = true;
-          const float* planes[3] = {below, here, above};
-          for (int p = 0; p < 3 && is_max; ++p) {
-            int k = 0;
-            for (int di = -1; di <= 1; ++di) {
-              const float* row = planes[p] + at + static_cast<std::ptrdiff_t>(di) * cols;
-              for (int dj = -1; dj <= 1; ++dj, ++k) {
-                n[p][k] = row[dj];
-                if (!(p == 1 && k == 4) && !(v > n[p][k])) is_max = false;
-              }
+          for (int p : {0, 2}) {  // full neighbour layers before the ones computed on demand
+            if (full[p] == nullptr) continue;
+            const float* q = full[p] + static_cast<std::size_t>(i) * cols + j;
+            for (int k = 0; k < 9 && is_max; ++k) {
+              n[p][k] = q[(k / 3 - 1) * static_cast<std::ptrdiff_t>(cols) + (k % 3 - 1)];
+              is_max = v > n[p][k];
+            }
+          }
+          for (int p : {0, 2}) {
+            if (!is_max || full[p] != nullptr) continue;
+            const HessianFilter& f = filters[layer - 1 + p];
+            for (int k = 0; k < 9 && is_max; ++k) {
+              n[p][k] = hessianAt(f, centre(i + k / 3 - 1, j + k % 3 - 1));
+              is_max = v > n[p][k];
             }
           }
           if (!is_max) continue;
+          for (int k = 0; k < 9; ++k) n[1][k] = row[(k / 3 - 1) * static_cast<std::ptrdiff_t>(cols) + j + (k % 3 - 1)];
           cv::Vec3d offset;
           if (!interpolate(n, offset)) continue;
-          const HessianFilter filter(size, stride);
-          const uint32_t* centre = sum + static_cast<std::ptrdiff_t>(i) * step * stride + j * step;
-          const float trace = filter.dxx(centre) + filter.dyy(centre);
+          const float trace = filters[layer].dxx(centre(i, j)) + filters[layer].dyy(centre(i, j));
           cv::KeyPoint kp;
           kp.pt.x = static_cast<float>((j + offset[0]) * step);
           kp.pt.y = static_cast<float>((i + offset[1]) * step);
@@ -296,16 +429,10 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
   const auto cellMean = [&](float px, float py, int box, float inv_box2) -> float {
     if (box <= 1) return bilinear(gray8, px, py);
     const float fx = px - (box - 1) * 0.5f, fy = py - (box - 1) * 0.5f;
-    const int x = static_cast<int>(std::floor(fx)), y = static_cast<int>(std::floor(fy));
+    const int x = floorInt(fx), y = floorInt(fy);
     const float ax = fx - static_cast<float>(x), ay = fy - static_cast<float>(y);
     if (x >= 0 && y >= 0 && x + box + 1 <= width && y + box + 1 <= height) {
-      const uint32_t* p = sum + static_cast<std::ptrdiff_t>(y) * stride + x;
-      const auto bs = [&](std::ptrdiff_t o) {
-        const uint32_t* q = p + o;
-        return static_cast<float>(static_cast<int32_t>(q[box * stride + box] - q[box] - q[box * stride] + q[0]));
-      };
-      return ((1.f - ay) * ((1.f - ax) * bs(0) + ax * bs(1)) + ay * ((1.f - ax) * bs(stride) + ax * bs(stride + 1))) *
-             inv_box2;
+      return boxMeanInside(sum, stride, x, y, ax, ay, box, inv_box2);
     }
     if (box <= width && box <= height) {
       // Near the border: the box shifted inside the image (replicates the edge).
@@ -314,6 +441,20 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
       return static_cast<float>(integral.boxSum(cx, cy, cx + box, cy + box)) * inv_box2;
     }
     return bilinear(gray8, px, py);
+  };
+  // True if every cell of side `box` centred within `radius` [px] of `c` passes cellMean's
+  // inside test (one pixel of slack for rounding): the loops then call boxMeanInside directly,
+  // with the same arithmetic as cellMean, so hoisting the test changes no output bit.
+  const auto allInside = [&](const cv::Point2f& c, float radius, int box) {
+    if (box <= 1) return false;
+    const float lo = radius + (box - 1) * 0.5f + 1.f, hi = radius - (box - 1) * 0.5f + box + 2.f;
+    return c.x - lo >= 0.f && c.y - lo >= 0.f && c.x + hi <= static_cast<float>(width) &&
+           c.y + hi <= static_cast<float>(height);
+  };
+  const auto fastMean = [&](float px, float py, int box, float inv_box2) {
+    const float fx = px - (box - 1) * 0.5f, fy = py - (box - 1) * 0.5f;
+    const int x = floorInt(fx), y = floorInt(fy);
+    return boxMeanInside(sum, stride, x, y, fx - static_cast<float>(x), fy - static_cast<float>(y), box, inv_box2);
   };
   std::size_t kept = 0;
   for (std::size_t k = 0; k < keypoints.size(); ++k) {
@@ -332,9 +473,15 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
       std::array<float, kGW * kGW> grid;
       const int obox = std::max(1, static_cast<int>(std::lround(3.f * s)));  // smoothing box [px]
       const float inv_obox2 = 1.f / static_cast<float>(obox * obox);
-      for (int v = -kG; v <= kG; ++v)
-        for (int u = -kG; u <= kG; ++u)
-          grid[(v + kG) * kGW + (u + kG)] = cellMean(kp.pt.x + u * s, kp.pt.y + v * s, obox, inv_obox2);
+      if (allInside(kp.pt, kG * s * 1.001f, obox)) {
+        for (int v = -kG; v <= kG; ++v)
+          for (int u = -kG; u <= kG; ++u)
+            grid[(v + kG) * kGW + (u + kG)] = fastMean(kp.pt.x + u * s, kp.pt.y + v * s, obox, inv_obox2);
+      } else {
+        for (int v = -kG; v <= kG; ++v)
+          for (int u = -kG; u <= kG; ++u)
+            grid[(v + kG) * kGW + (u + kG)] = cellMean(kp.pt.x + u * s, kp.pt.y + v * s, obox, inv_obox2);
+      }
       std::size_t n = 0;
       for (std::size_t q = 0; q < ori_offsets_.size(); ++q) {
         const float* g = grid.data() + (ori_offsets_[q].y + kG) * kGW + (ori_offsets_[q].x + kG);
@@ -391,15 +538,21 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
       const float cs = std::cos(rad), sn = std::sin(rad);
       const int box = static_cast<int>(std::lround(s));
       const float inv_box2 = 1.f / static_cast<float>(box * box);
-      for (int r = 0; r <= kPatch; ++r) {
-        const float dv = (static_cast<float>(r) - kPatch / 2.f) * s;
-        for (int c = 0; c <= kPatch; ++c) {
-          const float du = (static_cast<float>(c) - kPatch / 2.f) * s;
-          const float px = kp.pt.x + du * cs - dv * sn;
-          const float py = kp.pt.y + du * sn + dv * cs;
-          const float value = cellMean(px, py, box, inv_box2);
-          patch[r * (kPatch + 1) + c] = value;
+      const auto sample = [&](auto&& mean) {
+        for (int r = 0; r <= kPatch; ++r) {
+          const float dv = (static_cast<float>(r) - kPatch / 2.f) * s;
+          for (int c = 0; c <= kPatch; ++c) {
+            const float du = (static_cast<float>(c) - kPatch / 2.f) * s;
+            const float px = kp.pt.x + du * cs - dv * sn;
+            const float py = kp.pt.y + du * sn + dv * cs;
+            patch[r * (kPatch + 1) + c] = mean(px, py, box, inv_box2);
+          }
         }
+      };
+      if (allInside(kp.pt, kPatch / 2.f * s * (std::abs(cs) + std::abs(sn)) * 1.001f, box)) {
+        sample(fastMean);
+      } else {
+        sample(cellMean);
       }
       for (int r = 0; r < kPatch; ++r) {
         const float* p0 = patch.data() + r * (kPatch + 1);

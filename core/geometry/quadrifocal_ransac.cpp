@@ -38,6 +38,20 @@ Mat23 projectJacobian(const camera::RectifiedRig& rig, const Eigen::Vector3d& p,
   return J;
 }
 
+/// Rigid motion T with dst_i ~ T src_i from the three columns (Arun / Umeyama without scale).
+/// Fixed-size throughout: Eigen::umeyama works on dynamic matrices and allocated per call.
+Eigen::Isometry3d alignThree(const Eigen::Matrix3d& src, const Eigen::Matrix3d& dst) {
+  const Eigen::Vector3d cs = src.rowwise().mean(), cd = dst.rowwise().mean();
+  const Eigen::Matrix3d H = (dst.colwise() - cd) * (src.colwise() - cs).transpose();
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d U = svd.matrixU();
+  if (U.determinant() * svd.matrixV().determinant() < 0) U.col(2) = -U.col(2);  // no reflection
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = U * svd.matrixV().transpose();
+  T.translation() = cd - T.linear() * cs;
+  return T;
+}
+
 }  // namespace
 
 const char* toString(RansacStatus s) {
@@ -65,6 +79,7 @@ void QuadrifocalRansac::reserve(std::size_t max_matches) {
   usable_.reserve(max_matches);
   points_.reserve(max_matches);
   points_trial_.reserve(max_matches);
+  blocks_.reserve(max_matches);
 }
 
 bool QuadrifocalRansac::triangulate(const Eigen::Vector2f& left, const Eigen::Vector2f& right,
@@ -79,33 +94,41 @@ bool QuadrifocalRansac::triangulate(const Eigen::Vector2f& left, const Eigen::Ve
   return p.allFinite();
 }
 
-double QuadrifocalRansac::transferError(std::size_t i, const Eigen::Isometry3d& T_prev_curr,
-                                        const Eigen::Isometry3d& T_curr_prev) const {
+double QuadrifocalRansac::transferError2(std::size_t i, const Eigen::Isometry3d& T_prev_curr,
+                                         const Eigen::Isometry3d& T_curr_prev) const {
   const QuadMatch& m = matches_[i];
-  const double b = rig_.baseline_m;
   const Eigen::Vector3d in_curr = T_curr_prev * p_prev_[i];
   const Eigen::Vector3d in_prev = T_prev_curr * p_curr_[i];
   if (!(in_curr.z() > kMinDepthM) || !(in_prev.z() > kMinDepthM)) return kInf;
-  const double e0 = (project(rig_, in_curr, 0) - m.left_curr.cast<double>()).norm();
-  const double e1 = (project(rig_, in_curr, b) - m.right_curr.cast<double>()).norm();
-  const double e2 = (project(rig_, in_prev, 0) - m.left_prev.cast<double>()).norm();
-  const double e3 = (project(rig_, in_prev, b) - m.right_prev.cast<double>()).norm();
-  const double e = std::max(std::max(e0, e1), std::max(e2, e3));
+  // Left and right of a rectified pair share v and differ by f b / z in u.
+  const double f = rig_.f_px, fb = rig_.f_px * rig_.baseline_m;
+  const double ic = 1.0 / in_curr.z(), ip = 1.0 / in_prev.z();
+  const double uc = f * in_curr.x() * ic + rig_.cx, vc = f * in_curr.y() * ic + rig_.cy;
+  const double up = f * in_prev.x() * ip + rig_.cx, vp = f * in_prev.y() * ip + rig_.cy;
+  const double dvc0 = vc - m.left_curr.y(), dvc1 = vc - m.right_curr.y();
+  const double dvp0 = vp - m.left_prev.y(), dvp1 = vp - m.right_prev.y();
+  const double duc0 = uc - m.left_curr.x(), duc1 = uc - fb * ic - m.right_curr.x();
+  const double dup0 = up - m.left_prev.x(), dup1 = up - fb * ip - m.right_prev.x();
+  const double e = std::max(std::max(duc0 * duc0 + dvc0 * dvc0, duc1 * duc1 + dvc1 * dvc1),
+                            std::max(dup0 * dup0 + dvp0 * dvp0, dup1 * dup1 + dvp1 * dvp1));
   return std::isfinite(e) ? e : kInf;
 }
 
-QuadrifocalRansac::Scored QuadrifocalRansac::score(const Eigen::Isometry3d& T_prev_curr) const {
-  // MSAC: truncated quadratic, so among equal counts the tighter hypothesis wins.
+QuadrifocalRansac::Scored QuadrifocalRansac::score(const Eigen::Isometry3d& T_prev_curr,
+                                                   double bound) const {
+  // MSAC: truncated quadratic, so among equal counts the tighter hypothesis wins. The cost
+  // only grows, so once it reaches the best so far the hypothesis is lost: stop scoring.
   const Eigen::Isometry3d T_curr_prev = T_prev_curr.inverse();
   const double th = params_.inlier_threshold_px, th2 = th * th;
   Scored s;
   for (uint32_t i : usable_) {
-    const double e = transferError(i, T_prev_curr, T_curr_prev);
-    if (e <= th) {
+    const double e2 = transferError2(i, T_prev_curr, T_curr_prev);
+    if (e2 <= th2) {
       ++s.inliers;
-      s.cost += e * e;
+      s.cost += e2;
     } else {
       s.cost += th2;
+      if (s.cost >= bound) return s;
     }
   }
   return s;
@@ -126,9 +149,9 @@ void QuadrifocalRansac::selectInliers(const Eigen::Isometry3d& T_prev_curr,
                                       std::vector<uint32_t>& out) const {
   out.clear();
   const Eigen::Isometry3d T_curr_prev = T_prev_curr.inverse();
+  const double th2 = params_.inlier_threshold_px * params_.inlier_threshold_px;
   for (uint32_t i : usable_)
-    if (transferError(i, T_prev_curr, T_curr_prev) <= params_.inlier_threshold_px)
-      out.push_back(i);
+    if (transferError2(i, T_prev_curr, T_curr_prev) <= th2) out.push_back(i);
 }
 
 RansacResult QuadrifocalRansac::estimate(std::span<const QuadMatch> matches,
@@ -156,7 +179,7 @@ RansacResult QuadrifocalRansac::estimate(std::span<const QuadMatch> matches,
 
   Eigen::Isometry3d best_T = result.T_prev_curr;
   Scored best{kInf, 0};
-  if (prior_ok) best = score(T_prev_curr_prior);
+  if (prior_ok) best = score(T_prev_curr_prior, kInf);
 
   std::uniform_int_distribution<std::size_t> pick(0, usable_.size() - 1);
   const double log_fail = std::log(1.0 - std::clamp(params_.confidence, 0.5, 0.999999));
@@ -194,14 +217,13 @@ RansacResult QuadrifocalRansac::estimate(std::span<const QuadMatch> matches,
       ++degenerate;
       continue;
     }
-    Eigen::Isometry3d T;
-    T.matrix() = Eigen::umeyama(src, dst, false);
+    const Eigen::Isometry3d T = alignThree(src, dst);
     if (!finite(T)) {
       ++degenerate;
       continue;
     }
     if (prior_ok && !withinPrior(T, T_prev_curr_prior)) continue;
-    const Scored s = score(T);
+    const Scored s = score(T, best.cost);
     if (s.inliers > 0 && s.cost < best.cost) {
       best = s;
       best_T = T;
@@ -283,12 +305,12 @@ bool QuadrifocalRansac::refine(std::span<const QuadMatch> matches,
   double lambda = 1e-4;
   Mat6 S;
   Eigen::Matrix<double, 6, 1> g;
-  Vec8 r;
-  Mat86 Jp;
-  Mat83 Jl;
-  auto buildSystem = [&](double damping) {
-    S.setZero();
-    g.setZero();
+  blocks_.resize(n);
+  // Jacobians and the undamped blocks at the current (A, points_): once per accepted step.
+  auto linearise = [&]() {
+    Vec8 r;
+    Mat83 Jl;
+    Eigen::Matrix<double, 4, 6> Jp;  // the previous-pair rows of d r / d motion are zero
     for (std::size_t k = 0; k < n; ++k) {
       const Eigen::Vector3d& X = points_[k];
       const Eigen::Vector3d Y = A * X;
@@ -301,45 +323,48 @@ bool QuadrifocalRansac::refine(std::span<const QuadMatch> matches,
       Eigen::Matrix<double, 3, 6> dY;
       dY.leftCols<3>() = -se3::skew(Y);
       dY.rightCols<3>().setIdentity();
-      Jp.topRows<4>().setZero();
-      Jp.middleRows<2>(4) = Jy0 * dY;
+      Jp.topRows<2>() = Jy0 * dY;
       Jp.bottomRows<2>() = Jy1 * dY;
-      Mat6 Hpp = Jp.transpose() * Jp;
-      const Mat63 Hpl = Jp.transpose() * Jl;
-      Eigen::Matrix3d Hll = Jl.transpose() * Jl;
-      Hpp.diagonal() *= 1.0 + damping;
+      PointBlock& B = blocks_[k];
+      B.Hpp.noalias() = Jp.transpose() * Jp;
+      B.Hpl.noalias() = Jp.transpose() * Jl.bottomRows<4>();
+      B.Hll.noalias() = Jl.transpose() * Jl;
+      B.gp.noalias() = Jp.transpose() * r.tail<4>();
+      B.gl.noalias() = Jl.transpose() * r;
+    }
+  };
+  // Schur complement of the damped system onto the motion (one 6x6 solve per step).
+  auto reduce = [&](double damping) {
+    S.setZero();
+    g.setZero();
+    for (std::size_t k = 0; k < n; ++k) {
+      PointBlock& B = blocks_[k];
+      Eigen::Matrix3d Hll = B.Hll;
       Hll.diagonal() *= 1.0 + damping;
-      const Eigen::Matrix3d Hll_inv = Hll.inverse();
-      S += Hpp - Hpl * Hll_inv * Hpl.transpose();
-      g += Jp.transpose() * r - Hpl * Hll_inv * (Jl.transpose() * r);
+      B.Hll_inv = Hll.inverse();
+      const Mat63 W = B.Hpl * B.Hll_inv;
+      Mat6 Hpp = B.Hpp;
+      Hpp.diagonal() *= 1.0 + damping;
+      S += Hpp;
+      S.noalias() -= W * B.Hpl.transpose();
+      g += B.gp;
+      g.noalias() -= W * B.gl;
     }
   };
 
+  linearise();
+  bool linear_at_current = true;
   for (int it = 0; it < params_.refine_iterations; ++it) {
-    buildSystem(lambda);
+    if (!linear_at_current) linearise();
+    linear_at_current = true;
+    reduce(lambda);
     const Eigen::Matrix<double, 6, 1> dp = -S.ldlt().solve(g);
     if (!dp.allFinite()) return false;
     // Back-substitute the point steps (each point's 3x3 block).
     const Eigen::Isometry3d A_trial = se3::expSE3(dp) * A;
     for (std::size_t k = 0; k < n; ++k) {
-      const Eigen::Vector3d& X = points_[k];
-      const Eigen::Vector3d Y = A * X;
-      residual(A, X, matches[inliers[k]], r);
-      Jl.topRows<2>() = projectJacobian(rig_, X, 0);
-      Jl.middleRows<2>(2) = projectJacobian(rig_, X, b);
-      const Mat23 Jy0 = projectJacobian(rig_, Y, 0), Jy1 = projectJacobian(rig_, Y, b);
-      Jl.middleRows<2>(4) = Jy0 * A.linear();
-      Jl.bottomRows<2>() = Jy1 * A.linear();
-      Eigen::Matrix<double, 3, 6> dY;
-      dY.leftCols<3>() = -se3::skew(Y);
-      dY.rightCols<3>().setIdentity();
-      Eigen::Matrix<double, 2, 6> J0 = Jy0 * dY, J1 = Jy1 * dY;
-      Eigen::Matrix3d Hll = Jl.transpose() * Jl;
-      Hll.diagonal() *= 1.0 + lambda;
-      const Eigen::Vector3d rhs = Jl.transpose() * r + (J0.transpose() * Jl.middleRows<2>(4) +
-                                                        J1.transpose() * Jl.bottomRows<2>())
-                                                           .transpose() * dp;
-      points_trial_[k] = X - Hll.ldlt().solve(rhs);
+      const PointBlock& B = blocks_[k];
+      points_trial_[k] = points_[k] - B.Hll_inv * (B.gl + B.Hpl.transpose() * dp);
     }
     const double trial = totalCost(A_trial, points_trial_);
     if (trial < cost) {
@@ -347,15 +372,18 @@ bool QuadrifocalRansac::refine(std::span<const QuadMatch> matches,
       A = A_trial;
       points_.swap(points_trial_);
       cost = trial;
+      linear_at_current = false;
       lambda = std::max(lambda * 0.2, 1e-9);
-      if (gain < 1e-10 * (1.0 + cost) && dp.norm() < 1e-10) break;
+      // Converged: the step no longer changes the cost (relative 1e-8) or the motion.
+      if (gain <= 1e-8 * cost || dp.norm() < 1e-10) break;
     } else {
       lambda *= 10.0;
       if (lambda > 1e8) break;
     }
   }
 
-  buildSystem(0.0);
+  if (!linear_at_current) linearise();
+  reduce(0.0);
   const double dof = std::max(1.0, double(5 * n) - 6.0);
   const double sigma2 =
       std::max(cost / dof, params_.min_pixel_sigma_px * params_.min_pixel_sigma_px);

@@ -79,10 +79,13 @@ class QuadrifocalRansac {
   };
   bool triangulate(const Eigen::Vector2f& left, const Eigen::Vector2f& right,
                    Eigen::Vector3d& p) const;
-  /// Largest of the four transfer errors of match i under T_prev_curr [px]; +inf if unusable.
-  double transferError(std::size_t i, const Eigen::Isometry3d& T_prev_curr,
-                       const Eigen::Isometry3d& T_curr_prev) const;
-  Scored score(const Eigen::Isometry3d& T_prev_curr) const;
+  /// Largest of the four squared transfer errors of match i under T_prev_curr [px^2]; +inf
+  /// if unusable.
+  double transferError2(std::size_t i, const Eigen::Isometry3d& T_prev_curr,
+                        const Eigen::Isometry3d& T_curr_prev) const;
+  /// MSAC score; stops early (returning a cost >= `bound`) once the hypothesis cannot beat a
+  /// best cost of `bound`.
+  Scored score(const Eigen::Isometry3d& T_prev_curr, double bound) const;
   bool withinPrior(const Eigen::Isometry3d& T, const Eigen::Isometry3d& prior) const;
   void selectInliers(const Eigen::Isometry3d& T_prev_curr, std::vector<uint32_t>& out) const;
   /// Levenberg-Marquardt over motion and points; returns false if nothing usable came out.
@@ -98,6 +101,17 @@ class QuadrifocalRansac {
   std::vector<uint32_t> usable_;                  ///< indices with valid_ set
   std::vector<Eigen::Vector3d> points_;           ///< refinement structure, prev frame
   std::vector<Eigen::Vector3d> points_trial_;
+  /// Per-point normal-equation blocks of the refinement (motion p, point l), kept from the
+  /// linearisation so a rejected step or the back-substitution costs no new Jacobians.
+  struct PointBlock {
+    Eigen::Matrix<double, 6, 6> Hpp;
+    Eigen::Matrix<double, 6, 3> Hpl;
+    Eigen::Matrix3d Hll;
+    Eigen::Matrix3d Hll_inv;  ///< of the damped Hll
+    Eigen::Matrix<double, 6, 1> gp;
+    Eigen::Vector3d gl;
+  };
+  std::vector<PointBlock> blocks_;
 };
 
 }  // namespace seavio::geometry

@@ -21,15 +21,30 @@ void normalizeIllumination(const cv::Mat& in, cv::Mat& out, const IlluminationPa
   in_f.convertTo(out, CV_8U);
 }
 
+void suppressSnow(const cv::Mat& in, cv::Mat& out, const SnowFilterParams& params) {
+  if (!params.enabled || params.kernel_px < 2) {
+    if (out.data != in.data) in.copyTo(out);
+    return;
+  }
+  const cv::Mat disc = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(params.kernel_px, params.kernel_px));
+  cv::morphologyEx(in, out, cv::MORPH_OPEN, disc, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+}
+
 Frontend::Frontend(camera::StereoRectifier rectifier, const features::FeatureParams& feature_params,
-                   const matching::StereoMatchParams& stereo_params, const IlluminationParams& illumination)
+                   const matching::StereoMatchParams& stereo_params, const IlluminationParams& illumination,
+                   const SnowFilterParams& snow)
     : rectifier_(std::move(rectifier)),
       extractor_(feature_params),
       stereo_params_(stereo_params),
-      illumination_(illumination) {}
+      illumination_(illumination),
+      snow_(snow) {}
 
 void Frontend::rectify(const StereoFrame& frame, cv::Mat& left_rect, cv::Mat& right_rect) const {
   rectifier_.rectify(frame.left, frame.right, left_rect, right_rect);
+  if (snow_.enabled) {
+    suppressSnow(left_rect, left_rect, snow_);
+    suppressSnow(right_rect, right_rect, snow_);
+  }
   if (illumination_.enabled) {
     normalizeIllumination(left_rect, left_rect, illumination_);
     normalizeIllumination(right_rect, right_rect, illumination_);

@@ -44,12 +44,19 @@ void accumulate(Matrix6d& absolute, const Matrix6d& relative, const Eigen::Matri
 
 Odometry::Odometry(camera::StereoRectifier rectifier, const imu::ImuNoise& imu_noise, const OdometryParams& params,
                    NowNsFn now)
-    : frontend_(std::move(rectifier), params.features, params.stereo, params.illumination),
+    : frontend_(std::move(rectifier), params.features, params.stereo, params.illumination, params.snow),
       imu_noise_(imu_noise),
       params_(params),
       now_(std::move(now)),
       controller_(params.features.controller),
       ransac_(frontend_.rig(), params.ransac),
+      rescue_ransac_(frontend_.rig(),
+                     [&] {
+                       geometry::QuadRansacParams p = params.ransac;
+                       p.inlier_threshold_px = std::max(params.rescue_inlier_threshold_px, 1e-3);
+                       p.min_inliers = std::min(p.min_inliers, std::max(params.rescue_min_inliers, 3));
+                       return p;
+                     }()),
       map_(params.map),
       rng_(params.seed) {}
 
@@ -113,6 +120,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
                                   for (const auto& sp : frame.stereo.points) p.push_back(sp.p_R0);
                                   return p;
                                 }()});
+      storeRevisitFrame(frame.seq, frame.stereo, T_W_R0, frame.t_ns);
     }
     previous_ = PreviousFrame{std::move(frame), T_W_R0, r.t_ns};
     r.times.total_ms = r.times.rectify_ms + r.times.features_ms + r.times.stereo_ms + timer.total_ms();
@@ -124,7 +132,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   imu::Matrix9d start_cov = imu::Matrix9d::Zero();
   start_cov.block<3, 3>(3, 3) = state_covariance_.block<3, 3>(3, 3);
   start_cov.topLeftCorner<3, 3>() = state_covariance_.topLeftCorner<3, 3>();
-  const bool have_imu = imu_buffer_.size() >= 2 && imu_buffer_.back().t_ns >= state_.t_ns;
+  const bool have_imu = params_.prediction == Prediction::kImu && imu_buffer_.size() >= 2 &&
+                        imu_buffer_.back().t_ns >= state_.t_ns;
   imu::ImuPropagation pred;
   Eigen::Isometry3d T_prev_curr_pred;  // rectified left camera, previous <- current
   Matrix6d pred_cov;
@@ -134,7 +143,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     T_prev_curr_pred = orthonormalized((state_.T_W_B * T_B_R0).inverse() * (pred.state.T_W_B * T_B_R0));
     pred_cov = relativeCovariance(pred.covariance);
   } else {
-    // No IMU (KITTI, IMU outage): constant-velocity prediction, loosely trusted.
+    // No IMU (KITTI, IMU outage, or vision-only by choice): constant-velocity prediction,
+    // loosely trusted.
     pred.state = state_;
     pred.state.t_ns = frame.t_ns;
     const double scale = last_dt_s_ > 0 ? dt_s / last_dt_s_ : 1.0;
@@ -152,25 +162,50 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
 
   // --- III-C: inter-frame matching pruned by the prediction.
   const PreviousFrame& prev = *previous_;
-  const auto temporal = matching::matchTemporal(prev.features.stereo, frame.stereo, rig, T_prev_curr_pred, pred_cov,
+  auto temporal = matching::matchTemporal(prev.features.stereo, frame.stereo, rig, T_prev_curr_pred, pred_cov,
                                                 params_.temporal);
   r.quality.temporal_matches = static_cast<int>(temporal.size());
   r.times.temporal_ms = timer.lap_ms();
 
   // --- III-C: quadrifocal tensor of the two pairs, RANSAC + refinement.
   std::vector<geometry::QuadMatch> quads;
-  quads.reserve(temporal.size());
-  for (const auto& m : temporal) {
-    const auto& a = prev.features.stereo.points[static_cast<std::size_t>(m.prev)];
-    const auto& b = frame.stereo.points[static_cast<std::size_t>(m.curr)];
-    quads.push_back(geometry::QuadMatch{a.uv_left, a.uv_right, b.uv_left, b.uv_right});
+  const auto toQuads = [&] {
+    quads.clear();
+    quads.reserve(temporal.size());
+    for (const auto& m : temporal) {
+      const auto& a = prev.features.stereo.points[static_cast<std::size_t>(m.prev)];
+      const auto& b = frame.stereo.points[static_cast<std::size_t>(m.curr)];
+      quads.push_back(geometry::QuadMatch{a.uv_left, a.uv_right, b.uv_left, b.uv_right});
+    }
+  };
+  toQuads();
+  geometry::RansacResult ransac = ransac_.estimate(quads, T_prev_curr_pred, rng_);
+  bool vision_ok = ransac.status == geometry::RansacStatus::kOk &&
+                   static_cast<int>(ransac.inliers.size()) >= params_.min_inliers && finitePose(ransac.T_prev_curr);
+  const auto rescue = [&] {
+    if (static_cast<int>(quads.size()) < params_.rescue_min_inliers) return false;
+    geometry::RansacResult second = rescue_ransac_.estimate(quads, T_prev_curr_pred, rng_);
+    if (second.status != geometry::RansacStatus::kOk ||
+        static_cast<int>(second.inliers.size()) < params_.rescue_min_inliers || !finitePose(second.T_prev_curr))
+      return false;
+    ransac = std::move(second);
+    return true;
+  };
+  if (!vision_ok && params_.rescue_inlier_threshold_px > 0) {
+    vision_ok = rescue();
+    if (!vision_ok && params_.temporal.use_prediction) {
+      // After a lost frame the coasting prediction can be too wrong for its windows (a fast
+      // turn, a velocity gone stale): search the whole image once, so tracking comes back.
+      matching::TemporalMatchParams whole = params_.temporal;
+      whole.use_prediction = false;
+      temporal = matching::matchTemporal(prev.features.stereo, frame.stereo, rig, T_prev_curr_pred, pred_cov, whole);
+      toQuads();
+      vision_ok = rescue();
+    }
   }
-  const geometry::RansacResult ransac = ransac_.estimate(quads, T_prev_curr_pred, rng_);
   r.quality.ransac_inliers = static_cast<int>(ransac.inliers.size());
   r.times.tensor_ms = timer.lap_ms();
 
-  bool vision_ok = ransac.status == geometry::RansacStatus::kOk &&
-                   static_cast<int>(ransac.inliers.size()) >= params_.min_inliers && finitePose(ransac.T_prev_curr);
   Eigen::Isometry3d T_prev_curr = vision_ok ? ransac.T_prev_curr : T_prev_curr_pred;
   Matrix6d rel_cov = vision_ok ? Matrix6d(ransac.covariance) : pred_cov;
   if (vision_ok && params_.use_rotation_prior) {
@@ -196,6 +231,9 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   std::vector<Eigen::Vector3f> data;
   data.reserve(frame.stereo.points.size());
   for (const auto& sp : frame.stereo.points) data.push_back(sp.p_R0);
+  // Global mode: how far the map moved the frame off its odometry. A correction is not
+  // motion, so it stays out of the speed check and the velocity.
+  Eigen::Vector3d map_shift_W = Eigen::Vector3d::Zero();
   if (vision_ok) {
     std::vector<std::pair<int, int>> seeds;
     seeds.reserve(ransac.inliers.size());
@@ -216,6 +254,11 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
       }
     } else {
       const auto selected = map_.selectNear(T_W_R0.translation());
+      const Eigen::Isometry3d T_W_R0_odometry = T_W_R0;
+      if (correctFromRevisit(frame.stereo, selected, frame.t_ns, T_W_R0)) {
+        T_prev_curr = prev.T_W_R0.inverse() * T_W_R0;
+        map_shift_W = T_W_R0.translation() - T_W_R0_odometry.translation();
+      }
       // Registering against frames just behind us only re-measures the motion the tensor
       // already measured better; the map bounds the drift when the survey comes back over
       // older ground (paper III-D), so ICP runs when the selection holds such frames.
@@ -238,6 +281,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
         if (icp.status == icp::IcpStatus::kOk && finitePose(icp.T_model_data) &&
             correction.translation().norm() <= params_.max_map_correction_m &&
             se3::angle(correction) <= params_.max_map_correction_rad) {
+          map_shift_W += icp.T_model_data.translation() - T_W_R0.translation();
           T_W_R0 = icp.T_model_data;
           T_prev_curr = prev.T_W_R0.inverse() * T_W_R0;
         }
@@ -249,7 +293,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   T_W_R0 = orthonormalized(T_W_R0);
   Eigen::Isometry3d T_W_B = orthonormalized(T_W_R0 * T_B_R0.inverse());
   if (vision_ok && dt_s > 0 &&
-      (T_W_B.translation() - state_.T_W_B.translation()).norm() / dt_s > params_.max_speed_m_s) {
+      (T_W_B.translation() - map_shift_W - state_.T_W_B.translation()).norm() / dt_s > params_.max_speed_m_s) {
     vision_ok = false;  // a jump: refuse it rather than publish it
   }
 
@@ -257,7 +301,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     // Velocity: the visual displacement corrects the IMU's start velocity (III-A feeds III-C
     // and the visual pose feeds the next prediction).
     Eigen::Vector3d v = pred.state.v_W;
-    if (dt_s > 1e-6) v += (T_W_B.translation() - pred.state.T_W_B.translation()) / dt_s;
+    if (dt_s > 1e-6) v += (T_W_B.translation() - map_shift_W - pred.state.T_W_B.translation()) / dt_s;
     if (have_imu && dt_s > 1e-6 && ransac.status == geometry::RansacStatus::kOk) {
       // Gyro bias from the residual between the IMU rotation and the vision-only (RANSAC)
       // rotation, lightly filtered; the prior-refined rotation would only echo the IMU.
@@ -313,8 +357,11 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   last_motion_ = prev.T_W_R0.inverse() * T_W_R0;
   last_dt_s_ = dt_s;
 
-  if (params_.mode == Mode::kGlobal && r.source == PoseSource::kVision && map_.wantsKeyframe(T_W_R0))
+  if (params_.mode == Mode::kGlobal && r.source == PoseSource::kVision && map_.wantsKeyframe(T_W_R0)) {
     map_.insert(map::MapFrame{frame.seq, frame.t_ns, T_W_R0, data});
+    if ((T_W_R0.translation() - last_revisit_position_).norm() >= params_.revisit_keyframe_distance_m)
+      storeRevisitFrame(frame.seq, frame.stereo, T_W_R0, frame.t_ns);
+  }
 
   r.T_W_B = state_.T_W_B;
   r.v_W = state_.v_W;
@@ -322,6 +369,104 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   previous_ = PreviousFrame{std::move(frame), T_W_R0, r.t_ns};
   r.times.total_ms = r.times.rectify_ms + r.times.features_ms + r.times.stereo_ms + timer.total_ms();
   return r;
+}
+
+void Odometry::storeRevisitFrame(uint64_t id, const matching::StereoFeatures& features,
+                                 const Eigen::Isometry3d& T_W_R0, int64_t t_ns) {
+  RevisitFrame f;
+  f.t_ns = t_ns;
+  f.T_W_R0 = T_W_R0;
+  f.position_variance_m2 = pose_covariance_.bottomRightCorner<3, 3>().trace();
+  // Compact: an even subsample of the points, float descriptors (unit length, so every
+  // component in [-1, 1]) quantised to 8 bits.
+  const std::size_t n = features.points.size();
+  const std::size_t keep = std::min(n, static_cast<std::size_t>(std::max(params_.revisit_max_points, 1)));
+  if (keep == 0 || features.descriptors.rows != static_cast<int>(n)) return;
+  const double step = static_cast<double>(n) / static_cast<double>(keep);
+  cv::Mat rows(static_cast<int>(keep), features.descriptors.cols, features.descriptors.type());
+  for (std::size_t i = 0; i < keep; ++i) {
+    const auto src = static_cast<std::size_t>(static_cast<double>(i) * step);
+    f.features.points.push_back(features.points[src]);
+    f.features.laplacian_sign.push_back(features.laplacian_sign.empty() ? -1 : features.laplacian_sign[src]);
+    features.descriptors.row(static_cast<int>(src)).copyTo(rows.row(static_cast<int>(i)));
+  }
+  if (rows.type() == CV_32F) {
+    rows.convertTo(f.features.descriptors, CV_8S, 127.0);
+  } else {
+    f.features.descriptors = rows;
+  }
+  revisit_frames_[id] = std::move(f);
+  last_revisit_position_ = T_W_R0.translation();
+}
+
+bool Odometry::correctFromRevisit(const matching::StereoFeatures& current,
+                                  const std::vector<const map::MapFrame*>& selected, int64_t t_ns,
+                                  Eigen::Isometry3d& T_W_R0) {
+  const int64_t revisit_ns = static_cast<int64_t>(params_.min_revisit_age_s * 1e9);
+  const RevisitFrame* old = nullptr;
+  for (const map::MapFrame* f : selected) {  // nearest first
+    if (t_ns - f->t_ns < revisit_ns) continue;
+    const auto it = revisit_frames_.find(f->id);
+    if (it != revisit_frames_.end()) {
+      old = &it->second;
+      break;
+    }
+  }
+  if (old == nullptr) return false;
+  matching::StereoFeatures old_features;
+  old_features.points = old->features.points;
+  old_features.laplacian_sign = old->features.laplacian_sign;
+  if (old->features.descriptors.type() == CV_8S && current.descriptors.type() == CV_32F) {
+    old->features.descriptors.convertTo(old_features.descriptors, CV_32F, 1.0 / 127.0);
+  } else if (old->features.descriptors.type() == current.descriptors.type()) {
+    old_features.descriptors = old->features.descriptors;
+  } else {
+    return false;
+  }
+  // The drift accumulated since the old frame sizes the search: the shared part of the two
+  // poses' uncertainty cancels in their relative pose.
+  const double drift_var = std::max(pose_covariance_.bottomRightCorner<3, 3>().trace() - old->position_variance_m2, 1e-4);
+  Matrix6d cov = Matrix6d::Zero();
+  cov.topLeftCorner<3, 3>() = pose_covariance_.topLeftCorner<3, 3>() + Eigen::Matrix3d::Identity() * 1e-6;
+  cov.bottomRightCorner<3, 3>() = Eigen::Matrix3d::Identity() * (drift_var / 3.0);
+  const Eigen::Isometry3d guess = old->T_W_R0.inverse() * T_W_R0;
+  const camera::RectifiedRig& rig = frontend_.rig();
+  const auto matches = matching::matchTemporal(old_features, current, rig, guess, cov, params_.temporal);
+  if (static_cast<int>(matches.size()) < params_.revisit_min_inliers) return false;
+  std::vector<geometry::QuadMatch> quads;
+  quads.reserve(matches.size());
+  for (const auto& m : matches) {
+    const auto& a = old_features.points[static_cast<std::size_t>(m.prev)];
+    const auto& b = current.points[static_cast<std::size_t>(m.curr)];
+    quads.push_back(geometry::QuadMatch{a.uv_left, a.uv_right, b.uv_left, b.uv_right});
+  }
+  const geometry::RansacResult ransac = ransac_.estimate(quads, guess, rng_);
+  if (ransac.status != geometry::RansacStatus::kOk || static_cast<int>(ransac.inliers.size()) < params_.revisit_min_inliers ||
+      !finitePose(ransac.T_prev_curr))
+    return false;
+  const Eigen::Isometry3d measured = old->T_W_R0 * ransac.T_prev_curr;
+  const Eigen::Isometry3d correction = T_W_R0.inverse() * measured;
+  if (correction.translation().norm() > params_.max_revisit_correction_m) return false;
+  // Blend by uncertainty: the re-observation carries the old pose's error plus its own
+  // noise, the odometry the same old error plus the drift since.
+  const double meas_var = std::max(Matrix6d(ransac.covariance).bottomRightCorner<3, 3>().trace(), 1e-8);
+  const double w = drift_var / (drift_var + meas_var);
+  T_W_R0 = orthonormalized(T_W_R0 * se3::expSE3(w * se3::logSE3(correction)));
+  pose_covariance_ *= (1.0 - w);
+  pose_covariance_.bottomRightCorner<3, 3>() += Eigen::Matrix3d::Identity() * (w * old->position_variance_m2 / 3.0);
+  ++revisit_corrections_;
+  return true;
+}
+
+std::size_t Odometry::mapMemoryBytes() const {
+  std::size_t bytes = map_.memoryBytes();
+  for (const auto& [id, f] : revisit_frames_) {
+    bytes += sizeof(id) + sizeof(f) + 16;
+    bytes += f.features.points.capacity() * sizeof(matching::StereoPoint);
+    bytes += f.features.laplacian_sign.capacity() * sizeof(int);
+    bytes += f.features.descriptors.total() * f.features.descriptors.elemSize();
+  }
+  return bytes;
 }
 
 }  // namespace seavio::odometry

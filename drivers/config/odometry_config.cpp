@@ -81,6 +81,12 @@ class Parser {
     const Frame& f = stack_.back();
     if (!f.node.IsMap()) return;
     for (const auto& kv : f.node) {
+      // A list or map used as a key ("[a, b]: 1") has no name: report it, never throw.
+      if (!kv.first.IsScalar()) {
+        errors_.push_back(fmt::format("{}: {}: a key must be a plain name (line {})", file_, f.path,
+                                      kv.first.Mark().line + 1));
+        continue;
+      }
       const std::string k = kv.first.as<std::string>();
       if (!f.known.count(k))
         errors_.push_back(fmt::format("{}: {}.{}: unknown key (line {})", file_, f.path, k, kv.first.Mark().line + 1));
@@ -185,7 +191,12 @@ void visit(V& v, odometry::OdometryParams& p) {
   v.enumeration("final_stage", p.final_stage,
                 std::map<std::string, odometry::FinalStage>{{"icp", odometry::FinalStage::kIcp},
                                                             {"tensor", odometry::FinalStage::kTensor}});
+  v.enumeration("prediction", p.prediction,
+                std::map<std::string, odometry::Prediction>{
+                    {"imu", odometry::Prediction::kImu}, {"constant_velocity", odometry::Prediction::kConstantVelocity}});
   v.value("min_inliers", p.min_inliers, 3, 100000);
+  v.value("rescue_inlier_threshold_px", p.rescue_inlier_threshold_px, 0, 100);
+  v.value("rescue_min_inliers", p.rescue_min_inliers, 3, 100000);
   v.value("initial_velocity_sigma_m_s", p.initial_velocity_sigma_m_s, 0, 100);
   v.value("velocity_sigma_m_s", p.velocity_sigma_m_s, 0, 100);
   v.value("attitude_sigma_rad", p.attitude_sigma_rad, 0, 3.2);
@@ -196,6 +207,10 @@ void visit(V& v, odometry::OdometryParams& p) {
   v.value("min_revisit_age_s", p.min_revisit_age_s, 0, 1e9);
   v.value("max_map_correction_m", p.max_map_correction_m, 0, 1000);
   v.value("max_map_correction_rad", p.max_map_correction_rad, 0, 3.2);
+  v.value("revisit_keyframe_distance_m", p.revisit_keyframe_distance_m, 0, 1000);
+  v.value("revisit_max_points", p.revisit_max_points, 1, 100000);
+  v.value("revisit_min_inliers", p.revisit_min_inliers, 3, 100000);
+  v.value("max_revisit_correction_m", p.max_revisit_correction_m, 0, 1000);
   v.value("seed", p.seed, 0, 4294967295.0);
   v.flag("use_rotation_prior", p.use_rotation_prior);
   v.section("refinement", [&] {
@@ -203,6 +218,10 @@ void visit(V& v, odometry::OdometryParams& p) {
     v.value("pixel_sigma_px", p.refinement.pixel_sigma_px, 1e-3, 100);
     v.value("huber_px", p.refinement.huber_px, 1e-3, 100);
     v.value("min_rotation_sigma_rad", p.refinement.min_rotation_sigma_rad, 0, 1);
+  });
+  v.section("snow_filter", [&] {
+    v.flag("enabled", p.snow.enabled);
+    v.value("kernel_px", p.snow.kernel_px, 0, 31);
   });
   v.section("illumination", [&] {
     v.flag("enabled", p.illumination.enabled);

@@ -40,6 +40,11 @@ camera::CameraIntrinsics readIntrinsics(const YAML::Node& n, const std::string& 
   if (model != "pinhole") throw InputError(path + ": key 'camera_model' is '" + model + "', only pinhole is supported");
   camera::CameraIntrinsics c;
   const auto res = parse::asDoubles(n, "resolution", path, 2);
+  // Checked before the cast: a double outside int's range makes the conversion undefined
+  // (fuzz/corpus/dataset_yaml/regression_resolution_overflow).
+  for (double v : res)
+    if (!(v >= 1 && v <= 65536) || v != std::floor(v))
+      throw InputError(path + ": key 'resolution' must hold whole pixel counts in [1, 65536]");
   c.width = static_cast<int>(res[0]);
   c.height = static_cast<int>(res[1]);
   const auto k = parse::asDoubles(n, "intrinsics", path, 4);
@@ -135,6 +140,9 @@ std::vector<GroundTruthState> readEurocGroundTruth(const fs::path& mav0) {
     if (cols >= 8) {
       q = Eigen::Quaterniond(v[3], v[4], v[5], v[6]);
       if (q.norm() < 1e-6) throw InputError(path + ":" + std::to_string(l.number) + ": zero quaternion");
+      // Squares overflow above ~1e154: the norm is inf and normalising gives a zero rotation.
+      if (!std::isfinite(q.norm()))
+        throw InputError(path + ":" + std::to_string(l.number) + ": quaternion too large to normalise");
     }
     s.T_W_B = se3::fromTQ(p, q);
     if (cols == 17) {
@@ -262,7 +270,7 @@ Dataset loadKitti(const std::string& dir) {
   std::vector<int> tline;
   for (const auto& l : parse::readDataLines(tpath)) {
     const double s = parse::numberField(parse::split(l.text, ' ')[0], tpath, l.number, "time [s]");
-    const int64_t t = std::llround(s * 1e9);
+    const int64_t t = parse::secondsToNs(s, tpath, l.number, "time [s]");
     requireIncreasing(ds.frames.empty() ? 0 : ds.frames.back().t_ns, t, ds.frames.empty(), tpath, l.number);
     char name[32];
     std::snprintf(name, sizeof(name), "%06zu.png", ds.frames.size());

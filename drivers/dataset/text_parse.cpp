@@ -79,6 +79,13 @@ int64_t integerField(const std::string& field, const std::string& path, int line
   return static_cast<int64_t>(v);
 }
 
+int64_t secondsToNs(double seconds, const std::string& path, int line, const char* what) {
+  // 9.2e9 s is int64's limit in ns; beyond it llround's result is unspecified.
+  if (!(std::fabs(seconds) < 9.2e9))
+    throw InputError(where(path, line) + what + " " + std::to_string(seconds) + " is out of range");
+  return std::llround(seconds * 1e9);
+}
+
 void parseRow(const Line& line, const std::string& path, std::size_t n, int64_t& t_ns, std::vector<double>& rest) {
   const auto f = split(line.text, ',');
   if (f.size() < n)

@@ -29,6 +29,10 @@ int64_t integerField(const std::string& field, const std::string& path, int line
 
 /// Parses `n` numeric columns of a CSV row (column 0 as int64 timestamp [ns], the rest
 /// doubles) and throws on a short row, non-number or NaN.
+/// A time in seconds as int64 nanoseconds, rounded; throws InputError "path:line: ..." if
+/// it does not fit (|t| above ~292 years), where the conversion would be undefined.
+int64_t secondsToNs(double seconds, const std::string& path, int line, const char* what);
+
 void parseRow(const Line& line, const std::string& path, std::size_t n, int64_t& t_ns, std::vector<double>& rest);
 
 /// Loads a YAML file, dropping OpenCV's leading `%YAML:1.0` directive that yaml-cpp rejects.

@@ -36,13 +36,19 @@ namespace {
 int64_t secondsToNs(const std::string& s, const std::string& path, int line) {
   const auto dot = s.find('.');
   const bool plain = s.find_first_of("eE") == std::string::npos && s.size() > 0;
-  if (plain && dot != std::string::npos && s.size() - dot - 1 <= 9 && s[0] != '-') {
+  // Exact path for plain decimals with digits only after the dot and a whole part that
+  // cannot overflow int64 ns ("99999999999.5" overflowed: fuzz/corpus/dataset_csv/regression_tum_time_overflow).
+  const bool digits_after =
+      dot != std::string::npos && s.find_first_not_of("0123456789", dot + 1) == std::string::npos;
+  if (plain && digits_after && s.size() - dot - 1 <= 9 && s[0] != '-' && s[0] != '+' && dot <= 10) {
     const int64_t whole = dot == 0 ? 0 : parse::integerField(s.substr(0, dot), path, line, "time [s]");
+    if (whole > 9'223'372'035)
+      throw InputError(path + ":" + std::to_string(line) + ": time [s] " + s + " is out of range");
     std::string frac = s.substr(dot + 1);
     frac.resize(9, '0');
     return whole * 1'000'000'000 + parse::integerField(frac, path, line, "time [s]");
   }
-  return std::llround(parse::numberField(s, path, line, "time [s]") * 1e9);
+  return parse::secondsToNs(parse::numberField(s, path, line, "time [s]"), path, line, "time [s]");
 }
 
 }  // namespace
@@ -58,6 +64,9 @@ std::vector<eval::TimedPose> readTum(const std::string& path) {
     for (int i = 0; i < 7; ++i) v[i] = parse::numberField(f[i + 1], path, l.number, "pose value");
     const Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);
     if (q.norm() < 1e-6) throw InputError(path + ":" + std::to_string(l.number) + ": zero quaternion");
+    // Squares overflow above ~1e154: the norm is inf and normalising gives a zero rotation.
+    if (!std::isfinite(q.norm()))
+      throw InputError(path + ":" + std::to_string(l.number) + ": quaternion too large to normalise");
     eval::TimedPose p;
     p.t_ns = secondsToNs(f[0], path, l.number);
     if (!poses.empty() && p.t_ns <= poses.back().t_ns)

@@ -11,6 +11,8 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include "drivers/lcm/safe_decode.hpp"
+
 namespace seavio::drivers {
 
 class LcmBus {
@@ -38,6 +40,17 @@ class LcmBus {
     return ok;
   }
 
+  /// Sends already encoded bytes (a logged event as is). Thread-safe like publish().
+  bool publishRaw(const std::string& channel, const void* data, unsigned int size) {
+    bool ok = false;
+    {
+      const std::lock_guard<std::mutex> lock(publish_mutex_);
+      ok = good() && lcm_->publish(channel, data, size) == 0;
+    }
+    if (!ok) publish_failures_.fetch_add(1, std::memory_order_relaxed);
+    return ok;
+  }
+
   /// Calls `fn` for every message on `channel` that decodes as Msg; the rest are counted
   /// in decodeFailures(). Handlers run inside handle() on the caller's thread.
   template <class Msg>
@@ -45,7 +58,7 @@ class LcmBus {
     auto h = std::make_unique<Handler>();
     h->fn = [this, fn = std::move(fn)](const lcm::ReceiveBuffer* rbuf) {
       Msg m{};
-      if (m.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) {
+      if (!decodeLcm(m, static_cast<const uint8_t*>(rbuf->data), rbuf->data_size)) {
         decode_failures_.fetch_add(1, std::memory_order_relaxed);
         return;
       }

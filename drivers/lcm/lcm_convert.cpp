@@ -1,5 +1,6 @@
 #include "drivers/lcm/lcm_convert.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -55,6 +56,31 @@ seavio_lcm::pose_t toPoseMsg(const OdometryResult& r, int64_t publish_t_ns) {
   m.icp_rms_m = std::isfinite(r.quality.icp_rms_m) ? r.quality.icp_rms_m : -1.0;
   m.processing_ms = std::isfinite(r.times.total_ms) ? r.times.total_ms : -1.0;
   return m;
+}
+
+void setPoseTiming(seavio_lcm::pose_t& m, const StageTimes& times, int64_t recv_t_ns, int64_t proc_end_t_ns,
+                   int64_t publish_t_ns) {
+  m.recv_t_ns = recv_t_ns;
+  m.stage_names.clear();
+  m.stage_ms.clear();
+  auto add = [&m](const char* name, double ms) {
+    m.stage_names.emplace_back(name);
+    m.stage_ms.push_back(ms);
+  };
+  const int64_t acq_ns = recv_t_ns - m.t_ns;
+  if (acq_ns >= 0 && acq_ns < 10'000'000'000LL) add("acquisition", static_cast<double>(acq_ns) * 1e-6);
+  const double recv_to_end_ms = static_cast<double>(proc_end_t_ns - recv_t_ns) * 1e-6;
+  add("queue", std::max(0.0, recv_to_end_ms - times.total_ms));
+  if (times.total_ms > 0) {
+    add("rectify", times.rectify_ms);
+    add("features", times.features_ms);
+    add("stereo", times.stereo_ms);
+    add("temporal", times.temporal_ms);
+    add("tensor", times.tensor_ms);
+    add("icp", times.icp_ms);
+  }
+  add("publish", static_cast<double>(publish_t_ns - proc_end_t_ns) * 1e-6);
+  m.num_stages = static_cast<int16_t>(m.stage_names.size());
 }
 
 OdometryResult fromPoseMsg(const seavio_lcm::pose_t& m) {

@@ -24,23 +24,13 @@ bool LcmLogWriter::writeRaw(const std::string& channel, const uint8_t* data, int
   return true;
 }
 
-LcmLogReader::LcmLogReader(const std::string& path)
-    : path_(path), log_(std::make_unique<lcm::LogFile>(path, "r")) {
-  if (!log_->good()) error_ = path + ": cannot open LCM log for reading";
-}
+LcmLogReader::LcmLogReader(const std::string& path) : scanner_(path) {}
 
 std::optional<LcmLogEvent> LcmLogReader::next() {
   if (!good()) return std::nullopt;
-  const lcm::LogEvent* ev = log_->readNextEvent();
-  if (ev == nullptr) return std::nullopt;
-  LcmLogEvent out;
-  out.t_us = ev->timestamp;
-  out.channel = ev->channel;
-  if (ev->datalen > 0 && ev->data != nullptr) {
-    const auto* p = static_cast<const uint8_t*>(ev->data);
-    out.data.assign(p, p + ev->datalen);
-  }
-  return out;
+  std::optional<ScannedEvent> ev = scanner_.next();
+  if (!ev) return std::nullopt;
+  return LcmLogEvent{ev->t_us, std::move(ev->channel), std::move(ev->data)};
 }
 
 }  // namespace seavio::drivers

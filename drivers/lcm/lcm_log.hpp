@@ -8,6 +8,9 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include "drivers/lcm/lcm_log_scanner.hpp"
+#include "drivers/lcm/safe_decode.hpp"
+
 namespace seavio::drivers {
 
 /// Appends encoded messages to a new log file.
@@ -45,20 +48,23 @@ struct LcmLogEvent {
   std::vector<uint8_t> data;
 };
 
-/// Reads events in file order. A truncated or corrupt tail ends the log; lcm's reader
-/// resynchronises on the event sync word, so damage in the middle skips events.
+/// Reads events in file order. A truncated tail ends the log and damage in the middle skips to
+/// the next event (LcmLogScanner; lcm's own reader would trust a corrupt length field and
+/// allocate gigabytes).
 class LcmLogReader {
  public:
   explicit LcmLogReader(const std::string& path);
-  bool good() const { return log_ && log_->good(); }
-  const std::string& error() const { return error_; }
+  bool good() const { return scanner_.good(); }
+  const std::string& error() const { return scanner_.error(); }
+  /// Damaged places met so far (offsets, events before them).
+  const std::vector<LogDamage>& damage() const { return scanner_.damage(); }
   /// Next event, or empty at the end of the log.
   std::optional<LcmLogEvent> next();
   /// Decodes `ev` as Msg; empty (and counted in decodeFailures()) if it does not decode.
   template <class Msg>
   std::optional<Msg> decode(const LcmLogEvent& ev) {
     Msg m{};
-    if (m.decode(ev.data.data(), 0, static_cast<int>(ev.data.size())) < 0) {
+    if (!decodeLcm(m, ev.data.data(), ev.data.size())) {
       ++decode_failures_;
       return std::nullopt;
     }
@@ -67,9 +73,7 @@ class LcmLogReader {
   uint64_t decodeFailures() const { return decode_failures_; }
 
  private:
-  std::string path_;
-  std::unique_ptr<lcm::LogFile> log_;
-  std::string error_;
+  LcmLogScanner scanner_;
   uint64_t decode_failures_ = 0;
 };
 

@@ -2,8 +2,13 @@
 
 #include <algorithm>
 #include <chrono>
+#include <set>
 
+#include <spdlog/spdlog.h>
+
+#include "drivers/lcm/lcm_channels.hpp"
 #include "drivers/lcm/lcm_convert.hpp"
+#include "drivers/lcm/safe_decode.hpp"
 
 namespace seavio::drivers {
 
@@ -20,12 +25,57 @@ ReadStatus pump(LcmBus& bus, std::chrono::milliseconds timeout, Ready ready) {
   }
   return ReadStatus::kOk;
 }
+std::set<std::string> knownRawChannels() {
+  return {std::string(lcm_channels::kStereo), std::string(lcm_channels::kImu), std::string(lcm_channels::kPose),
+          std::string(lcm_channels::kStatus)};
+}
+
+/// Opens `log` if `url` is a file:// URL that reads. False with `error` on a bad URL or an
+/// unreadable file; `log` left empty for live URLs.
+bool openLogIfFile(const std::string& url, const std::string& channel, std::optional<LcmLogChannelReader>& log,
+                   std::string& error) {
+  error.clear();
+  std::optional<LogReplayUrl> u = parseLogReplayUrl(url, &error);
+  if (!u) return error.empty();
+  log.emplace(std::move(*u), channel, knownRawChannels());
+  if (!log->open(&error)) {
+    log.reset();
+    return false;
+  }
+  return true;
+}
+
+std::string describeEvent(const LcmLogChannelReader& log, const ScannedEvent& ev) {
+  return log.path() + ": byte offset " + std::to_string(ev.offset) + ", event " + std::to_string(ev.index) +
+         " on " + ev.channel;
+}
+
+/// Next message of `log` decoded as Msg. kError (with `error`) for damage reports and for a
+/// message that does not decode, which is counted in `bad`.
+template <class Msg>
+ReadStatus nextFromLog(LcmLogChannelReader& log, std::chrono::milliseconds timeout, Msg& msg, uint64_t& bad,
+                       std::string& error) {
+  ScannedEvent ev;
+  const ReadStatus st = log.next(ev, timeout);
+  if (st == ReadStatus::kError) error = log.lastReport();
+  if (st != ReadStatus::kOk) return st;
+  if (!decodeLcm(msg, ev.data.data(), ev.data.size())) {
+    ++bad;
+    error = describeEvent(log, ev) + ": message does not decode (other type or version, or damaged payload); skipped";
+    spdlog::warn("{}", error);
+    return ReadStatus::kError;
+  }
+  error.clear();
+  return ReadStatus::kOk;
+}
 }  // namespace
 
 LcmStereoSource::LcmStereoSource(std::string url, std::string channel, std::size_t max_queued)
     : url_(std::move(url)), channel_(std::move(channel)), max_queued_(std::max<std::size_t>(1, max_queued)) {}
 
 bool LcmStereoSource::start() {
+  if (!openLogIfFile(url_, channel_, log_, error_)) return false;
+  if (log_) return true;
   bus_ = std::make_unique<LcmBus>(url_);
   if (!bus_->good()) {
     error_ = "LCM provider '" + url_ + "' cannot be opened";
@@ -49,6 +99,21 @@ bool LcmStereoSource::start() {
 }
 
 ReadStatus LcmStereoSource::read(StereoFrame& out, std::chrono::milliseconds timeout) {
+  if (log_) {
+    seavio_lcm::stereo_t m{};
+    const ReadStatus st = nextFromLog(*log_, timeout, m, bad_, error_);
+    if (st != ReadStatus::kOk) return st;
+    std::string why;
+    auto f = fromStereoMsg(m, &why);
+    if (!f) {
+      ++bad_;
+      error_ = log_->path() + ": " + why;
+      spdlog::warn("{}", error_);
+      return ReadStatus::kError;
+    }
+    out = std::move(*f);
+    return ReadStatus::kOk;
+  }
   if (!bus_) return ReadStatus::kError;
   const ReadStatus st = pump(*bus_, timeout, [this] { return !queue_.empty(); });
   if (st != ReadStatus::kOk) return st;
@@ -57,12 +122,17 @@ ReadStatus LcmStereoSource::read(StereoFrame& out, std::chrono::milliseconds tim
   return ReadStatus::kOk;
 }
 
-void LcmStereoSource::stop() { bus_.reset(); }
+void LcmStereoSource::stop() {
+  bus_.reset();
+  log_.reset();
+}
 
 LcmImuSource::LcmImuSource(std::string url, std::string channel, std::size_t max_queued)
     : url_(std::move(url)), channel_(std::move(channel)), max_queued_(std::max<std::size_t>(1, max_queued)) {}
 
 bool LcmImuSource::start() {
+  if (!openLogIfFile(url_, channel_, log_, error_)) return false;
+  if (log_) return true;
   bus_ = std::make_unique<LcmBus>(url_);
   if (!bus_->good()) {
     error_ = "LCM provider '" + url_ + "' cannot be opened";
@@ -79,6 +149,12 @@ bool LcmImuSource::start() {
 }
 
 ReadStatus LcmImuSource::read(ImuSample& out, std::chrono::milliseconds timeout) {
+  if (log_) {
+    seavio_lcm::imu_t m{};
+    const ReadStatus st = nextFromLog(*log_, timeout, m, bad_, error_);
+    if (st == ReadStatus::kOk) out = fromImuMsg(m);
+    return st;
+  }
   if (!bus_) return ReadStatus::kError;
   const ReadStatus st = pump(*bus_, timeout, [this] { return !queue_.empty(); });
   if (st != ReadStatus::kOk) return st;
@@ -87,6 +163,9 @@ ReadStatus LcmImuSource::read(ImuSample& out, std::chrono::milliseconds timeout)
   return ReadStatus::kOk;
 }
 
-void LcmImuSource::stop() { bus_.reset(); }
+void LcmImuSource::stop() {
+  bus_.reset();
+  log_.reset();
+}
 
 }  // namespace seavio::drivers

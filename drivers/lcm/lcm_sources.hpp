@@ -2,12 +2,22 @@
 /// Camera and IMU sources fed by LCM messages (seavio_lcm::stereo_t / imu_t), so a running
 /// daemon takes its input from `lcm-logplayer` or another process exactly as from a driver
 /// (issue 7). Each source owns its own LCM instance and is read by one thread.
+///
+/// URL "udpm://...": live messages. Add `recv_buf_size=BYTES` to the URL for raw stereo: a
+/// 640 x 480 pair is ~600 kB of UDP fragments, more than Linux's default socket buffer
+/// holds while the daemon is busy (the kernel caps it at net.core.rmem_max). Frames lost
+/// there show as gaps in stereo_t.seq, counted by the daemon as frames_missing_upstream.
+/// URL "file://LOG[?speed=S]": the log is read directly (see lcm_log_replay.hpp): clean end
+/// of the log is kEnd; damage, unknown channels and undecodable messages are each one kError
+/// naming the file, offset and event, and reading goes on.
 #include <cstdint>
 #include <deque>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "drivers/lcm/lcm_bus.hpp"
+#include "drivers/lcm/lcm_log_replay.hpp"
 #include "drivers/source/sources.hpp"
 
 namespace seavio::drivers {
@@ -25,11 +35,14 @@ class LcmStereoSource : public CameraSource {
   uint64_t dropped() const { return dropped_; }
   /// Messages that did not decode or had inconsistent sizes.
   uint64_t badMessages() const { return bad_ + (bus_ ? bus_->decodeFailures() : 0); }
+  /// The log reader when replaying a file:// URL (null otherwise, or before start()).
+  const LcmLogChannelReader* logReader() const { return log_ ? &*log_ : nullptr; }
 
  private:
   std::string url_, channel_;
   std::size_t max_queued_;
   std::unique_ptr<LcmBus> bus_;
+  std::optional<LcmLogChannelReader> log_;
   std::deque<StereoFrame> queue_;
   uint64_t dropped_ = 0, bad_ = 0;
   std::string error_;
@@ -44,14 +57,16 @@ class LcmImuSource : public ImuSource {
   std::string lastError() const override { return error_; }
   std::string name() const override { return "lcm:" + channel_; }
   uint64_t dropped() const { return dropped_; }
-  uint64_t badMessages() const { return bus_ ? bus_->decodeFailures() : 0; }
+  uint64_t badMessages() const { return bad_ + (bus_ ? bus_->decodeFailures() : 0); }
+  const LcmLogChannelReader* logReader() const { return log_ ? &*log_ : nullptr; }
 
  private:
   std::string url_, channel_;
   std::size_t max_queued_;
   std::unique_ptr<LcmBus> bus_;
+  std::optional<LcmLogChannelReader> log_;
   std::deque<ImuSample> queue_;
-  uint64_t dropped_ = 0;
+  uint64_t dropped_ = 0, bad_ = 0;
   std::string error_;
 };
 

@@ -76,6 +76,85 @@ TEST(DaemonConfig, OdometryWithoutDatasetNeedsACalibration) {
   EXPECT_TRUE(ok.ok());
 }
 
+TEST(DaemonConfig, LiveDriversParseIntoTheirSections) {
+  const auto r = parseDaemonConfig(
+      "daemon:\n  calibration_dataset: /calib\n"
+      "  camera:\n    driver: aravis\n    width: 640\n    height: 480\n    frame_rate_hz: 15\n    buffers: 6\n"
+      "    aravis: {left: 10.0.0.5, right: Basler-acA-123, exposure_us: 800, trigger_source: Line1,\n"
+      "             packet_size: 8000, socket_buffer_bytes: 4000000, pair_tolerance_ms: 5,\n"
+      "             reconnect_after_ms: 700, clock_init_frames: 7}\n"
+      "  imu: {driver: can, interface: can1, can_profile: /etc/seavio/xsens.yaml}\n",
+      "live.yaml");
+  ASSERT_TRUE(r.ok()) << r.errors.front();
+  const DaemonConfig& c = r.config;
+  EXPECT_EQ(c.camera.aravis.left, "10.0.0.5");
+  EXPECT_EQ(c.camera.aravis.right, "Basler-acA-123");
+  EXPECT_EQ(c.camera.aravis.trigger_source, "Line1");
+  EXPECT_EQ(c.camera.aravis.packet_size, 8000);
+  EXPECT_DOUBLE_EQ(c.camera.aravis.pair_tolerance_ms, 5.0);
+  EXPECT_EQ(c.camera.aravis.clock_init_frames, 7);
+  EXPECT_EQ(c.camera.buffers, 6);
+  EXPECT_EQ(c.imu.interface, "can1");
+  EXPECT_EQ(c.imu.can_profile, "/etc/seavio/xsens.yaml");
+  const std::string d = describe(c);
+  EXPECT_NE(d.find("daemon.camera.aravis.left = 10.0.0.5"), std::string::npos);
+  EXPECT_NE(d.find("daemon.imu.can_profile = /etc/seavio/xsens.yaml"), std::string::npos);
+
+  const auto v = parseDaemonConfig(
+      "daemon:\n  calibration_dataset: /c\n  camera: {driver: v4l2, width: 1280, height: 480,\n"
+      "    v4l2: {device: /dev/video2, pixel_format: YUYV}}\n  imu: {driver: serial, device: /dev/ttyS1, rate_divisor: 4}\n",
+      "v.yaml");
+  ASSERT_TRUE(v.ok()) << v.errors.front();
+  EXPECT_EQ(v.config.camera.v4l2.device, "/dev/video2");
+  EXPECT_EQ(v.config.imu.rate_divisor, 4);
+}
+
+TEST(DaemonConfig, LiveDriverErrorsNameFileAndKey) {
+  const auto r = parseDaemonConfig(
+      "daemon:\n  calibration_dataset: /c\n"
+      "  camera:\n    driver: aravis\n    width: 641\n    frame_rate_hz: 15\n    buffers: 1\n"
+      "    aravis: {exposure_us: -3, packet_size: 12, pair_tolerance_ms: 40, reconnect_after_ms: 5,\n"
+      "             clock_init_frames: 0, colour: red}\n"
+      "  imu: {driver: can, interface: a_very_long_interface_name}\n",
+      "live.yaml");
+  EXPECT_FALSE(r.ok());
+  for (const char* key : {"daemon.camera.aravis.left", "daemon.camera.width", "daemon.camera.height",
+                          "daemon.camera.buffers", "daemon.camera.aravis.exposure_us", "daemon.camera.aravis.packet_size",
+                          "daemon.camera.aravis.pair_tolerance_ms", "daemon.camera.aravis.reconnect_after_ms",
+                          "daemon.camera.aravis.clock_init_frames", "daemon.camera.aravis.colour: unknown key",
+                          "daemon.imu.can_profile", "daemon.imu.interface"}) {
+    EXPECT_TRUE(anyContains(r.errors, std::string("live.yaml: ") + key)) << key;
+  }
+  const auto v = parseDaemonConfig(
+      "daemon:\n  calibration_dataset: /c\n  camera: {driver: v4l2, v4l2: {device: '', pixel_format: MJPG}}\n"
+      "  imu: {driver: none}\n",
+      "v.yaml");
+  for (const char* key : {"daemon.camera.width", "daemon.camera.height", "daemon.camera.v4l2.device",
+                          "daemon.camera.v4l2.pixel_format"}) {
+    EXPECT_TRUE(anyContains(v.errors, std::string("v.yaml: ") + key)) << key;
+  }
+  // Live sensors never wait for ring room.
+  const auto b = parseDaemonConfig(
+      "daemon:\n  calibration_dataset: /c\n  camera: {driver: v4l2, width: 640, height: 480}\n  backpressure: true\n",
+      "b.yaml");
+  EXPECT_TRUE(anyContains(b.errors, "b.yaml: daemon.backpressure"));
+}
+
+TEST(DaemonConfig, CameraDriversBuiltListsTheLiveOnes) {
+  const std::string d = cameraDriversBuilt();
+  EXPECT_NE(d.find("dataset, lcm,"), std::string::npos);
+  EXPECT_NE(d.find("v4l2,"), std::string::npos);
+#ifdef SEAVIO_HAVE_ARAVIS
+  EXPECT_NE(d.find("aravis,"), std::string::npos);
+#endif
+#ifdef SEAVIO_HAVE_LIBCAMERA
+  EXPECT_NE(d.find("libcamera,"), std::string::npos);
+#else
+  EXPECT_TRUE(anyContains(parseDaemonConfig("daemon:\n  calibration_dataset: /c\n  camera: {driver: libcamera}\n", "l.yaml").errors,
+                          "not built in"));
+#endif
+}
+
 TEST(DaemonConfig, DescribeListsEffectiveValues) {
   DaemonConfig c;
   c.lcm.url = "udpm://239.1.2.3:7000?ttl=0";

@@ -344,6 +344,75 @@ TEST(Daemon, BadLcmUrlFailsStart) {
   EXPECT_NE(d.error().find("bogus://nowhere"), std::string::npos);
 }
 
+/// A camera whose driver counts device faults (as the Aravis, V4L2 and serial sources
+/// wrapped by source_factory do).
+class FaultyCamera : public SyntheticCamera, public FaultReporter {
+ public:
+  using SyntheticCamera::SyntheticCamera;
+  DriverFaults faults() const override {
+    DriverFaults f;
+    f.camera_reconnects = 2;
+    f.camera_unpaired_frames = 5;
+    f.camera_lost_frames = 3;
+    f.timestamp_jumps = 1;
+    return f;
+  }
+};
+
+class FaultyImu : public SyntheticImu, public FaultReporter {
+ public:
+  DriverFaults faults() const override {
+    DriverFaults f;
+    f.imu_checksum_errors = 4;
+    f.imu_garbage_bytes = 37;
+    f.imu_partial_packets = 6;
+    f.imu_bus_errors = 8;
+    f.timestamp_jumps = 2;
+    return f;
+  }
+};
+
+TEST(Daemon, DriverFaultsReachTheStatusMessage) {
+  Daemon d(testConfig(), std::make_unique<FaultyCamera>(5, 10ms), std::make_unique<FaultyImu>(),
+           std::make_unique<DelayProcessor>(1ms));
+  const seavio_lcm::status_t m = d.statusMessage();
+  EXPECT_EQ(m.camera_reconnects, 2);
+  EXPECT_EQ(m.camera_unpaired_frames, 5);
+  EXPECT_EQ(m.camera_lost_frames, 3);
+  EXPECT_EQ(m.imu_checksum_errors, 4);
+  EXPECT_EQ(m.imu_garbage_bytes, 37);
+  EXPECT_EQ(m.imu_partial_packets, 6);
+  EXPECT_EQ(m.imu_bus_errors, 8);
+  EXPECT_EQ(m.timestamp_jumps, 3);  // camera and IMU together
+  EXPECT_NE(d.summary().find("camera reconnects 2"), std::string::npos) << d.summary();
+  // Sources without fault counters of their own report zeros.
+  Daemon plain(testConfig(), std::make_unique<SyntheticCamera>(5, 10ms), std::make_unique<SyntheticImu>(),
+               std::make_unique<DelayProcessor>(1ms));
+  EXPECT_EQ(plain.statusMessage().camera_reconnects, 0);
+  EXPECT_EQ(plain.statusMessage().imu_checksum_errors, 0);
+}
+
+TEST(Daemon, CameraImuTimeOffsetIsAddedToEveryFrameStamp) {
+  // GIVEN frames stamped on the camera clock and a configured offset of +7 ms
+  Subscriber sub(testConfig().lcm.url);
+  ASSERT_TRUE(sub.good());
+  DaemonConfig c = testConfig();
+  c.drain_to_newest = false;
+  c.rings.camera_frames = 16;
+  c.camera_imu_time_offset_ns = 7'000'000;
+  auto cam = std::make_unique<SyntheticCamera>(5, 20ms);
+  const int64_t t0 = monotonicNowNs();
+  for (int i = 0; i < 5; ++i) cam->stamps.push_back(t0 + i * 20'000'000LL);
+  Daemon d(c, std::move(cam), std::make_unique<SyntheticImu>(), std::make_unique<DelayProcessor>(1ms));
+  ASSERT_TRUE(d.start()) << d.error();
+  ASSERT_TRUE(waitFinished(d, 10s));
+  d.stop();
+  ASSERT_TRUE(sub.waitPoses(5, 2s));
+  // THEN every pose carries the frame's time on the IMU clock: t_cam + offset
+  const auto poses = sub.poses();
+  for (std::size_t i = 0; i < poses.size(); ++i) EXPECT_EQ(poses[i].t_ns, t0 + static_cast<int64_t>(i) * 20'000'000 + 7'000'000);
+}
+
 TEST(ImuDeadReckoning, AtRestStaysPutAndCoversGrow) {
   ImuDeadReckoningProcessor p;
   StereoFrame f;

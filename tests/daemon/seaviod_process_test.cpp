@@ -138,7 +138,13 @@ TEST(Seaviod, LcmFedDaemonPublishesPosesAndStopsOnSigtermWithinOneSecond) {
   const int rc = waitExit(pid, 3s);
   const auto took = std::chrono::steady_clock::now() - t0;
   EXPECT_EQ(rc, 0) << readFile(err);
+  // The 1 s stop requirement holds for the shipped build; ThreadSanitizer slows every
+  // synchronisation several-fold, so its build gets a proportionally wider margin.
+#if defined(__SANITIZE_THREAD__)
+  EXPECT_LT(took, 3s);
+#else
   EXPECT_LT(took, 1s);
+#endif
   const std::string text = readFile(err);
   EXPECT_NE(text.find("effective configuration"), std::string::npos);
   EXPECT_NE(text.find("daemon.lcm.url = " + url), std::string::npos);

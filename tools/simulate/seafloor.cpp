@@ -34,6 +34,26 @@ double valueNoise(double x, double y, double inv_scale, uint64_t salt, NoiseMemo
   return a + fy * (b - a);
 }
 
+/// Lattice value of octave noise at integer corner (a, b).
+double latticeValue(int64_t a, int64_t b, uint64_t salt) { return 2.0 * unitFromHash(hash3(a, b, salt)) - 1.0; }
+
+/// sin(x) to ~1e-11 (range reduction and a degree-15 Taylor polynomial): several times
+/// cheaper than std::sin, and the same code on the direct and the tiled path.
+double fastSin(double x) {
+  constexpr double two_pi = 2 * std::numbers::pi, half_pi = 0.5 * std::numbers::pi;
+  double r = x - two_pi * std::floor(x * (1 / two_pi) + 0.5);  // [-pi, pi]
+  if (r > half_pi) r = std::numbers::pi - r;
+  else if (r < -half_pi) r = -std::numbers::pi - r;
+  const double r2 = r * r;
+  return r * (1 + r2 * (-1 / 6.0 + r2 * (1 / 120.0 + r2 * (-1 / 5040.0 + r2 * (1 / 362880.0 +
+         r2 * (-1 / 39916800.0 + r2 * (1 / 6227020800.0 - r2 / 1307674368000.0)))))));
+}
+
+/// Lattice spacings of the sand octaves (inverse, 1/m) and their salt offsets; octave 0 is
+/// the ripple domain warp.
+constexpr double kOctaveInvScale[Seafloor::kOctaves] = {1.0, 1 / 1.5, 1 / 0.3, 1 / 0.07, 1 / 0.025, 1 / 0.016};
+uint64_t octaveSalt(uint64_t seed, int o) { return o == 0 ? seed * 31 + kSaltWarp : seed * 31 + kSaltAlbedo + 100 * (o - 1); }
+
 }  // namespace
 
 ReliefField::ReliefField(const SeafloorConfig& c, uint32_t seed) {
@@ -81,42 +101,53 @@ Seafloor::Seafloor(const SeafloorConfig& config, uint32_t seed)
 
 void Seafloor::evaluate(int64_t i, int64_t j, float* h_out, float* albedo_out) const {
   EvalContext ctx;
-  ctx.base = relief_.height(static_cast<double>(i) * res_, static_cast<double>(j) * res_);
-  evaluate(i, j, h_out, albedo_out, ctx);
+  const double x = static_cast<double>(i) * res_, y = static_cast<double>(j) * res_;
+  ctx.base = relief_.height(x, y);
+  double noise[kOctaves];
+  NoiseMemo memo;
+  for (int o = 0; o < kOctaves; ++o) {
+    memo.valid = false;
+    noise[o] = valueNoise(x, y, kOctaveInvScale[o], octaveSalt(seed_, o), memo);
+  }
+  compose(x, y, noise, ctx, h_out, albedo_out);
 }
 
-void Seafloor::evaluate(int64_t i, int64_t j, float* h_out, float* albedo_out, EvalContext& ctx) const {
-  const double x = static_cast<double>(i) * res_, y = static_cast<double>(j) * res_;
+void Seafloor::compose(double x, double y, const double* noise, EvalContext& ctx, float* h_out,
+                       float* albedo_out) const {
   const uint64_t s = seed_;
   const double base = ctx.base;
   double h = base;
-  // Sand: ripples whose crests wander (domain warp), grain texture from 1 m down to 1 cm.
-  const double warp = 1.5 * valueNoise(x, y, 1.0, s * 31 + kSaltWarp, ctx.memo[0]);
-  const double ripple = std::sin(2 * std::numbers::pi * (x * ripple_cos_ + y * ripple_sin_) /
-                                     config_.ripple_wavelength_m + warp);
+  // Sand: ripples whose crests wander (domain warp), grain texture from 1.5 m down to 1.6 cm.
+  const double warp = 1.5 * noise[0];
+  const double ripple = fastSin(2 * std::numbers::pi * (x * ripple_cos_ + y * ripple_sin_) /
+                                    config_.ripple_wavelength_m + warp);
   h += config_.ripple_amplitude_m * ripple;
-  double albedo = 0.45 + 0.04 * ripple + 0.12 * valueNoise(x, y, 1 / 1.5, s * 31 + kSaltAlbedo, ctx.memo[1]) +
-                  0.10 * valueNoise(x, y, 1 / 0.3, s * 31 + kSaltAlbedo + 100, ctx.memo[2]) +
-                  0.09 * valueNoise(x, y, 1 / 0.07, s * 31 + kSaltAlbedo + 200, ctx.memo[3]) +
-                  0.08 * valueNoise(x, y, 1 / 0.025, s * 31 + kSaltAlbedo + 300, ctx.memo[4]) +
-                  0.06 * valueNoise(x, y, 1 / 0.016, s * 31 + kSaltAlbedo + 400, ctx.memo[5]);
+  double albedo = 0.45 + 0.04 * ripple + 0.12 * noise[1] + 0.10 * noise[2] + 0.09 * noise[3] + 0.08 * noise[4] +
+                  0.06 * noise[5];
   // Pebbles and shells: at most one per 0.2 m cell, fully inside it, so only one cell to test.
   {
     constexpr double cell = 0.2;
     const auto cx = static_cast<int64_t>(std::floor(x / cell)), cy = static_cast<int64_t>(std::floor(y / cell));
-    const uint64_t hp = hash3(cx, cy, s * 31 + kSaltPebble);
-    if (unitFromHash(hp) < config_.pebble_probability) {
-      const uint64_t h1 = mix64(hp), h2 = mix64(h1), h3 = mix64(h2), h4 = mix64(h3);
-      const double r = 0.01 + 0.035 * unitFromHash(h1);
-      const double px = (cx + 0.0) * cell + r + (cell - 2 * r) * unitFromHash(h2);
-      const double py = (cy + 0.0) * cell + r + (cell - 2 * r) * unitFromHash(h3);
-      const double d2 = ((x - px) * (x - px) + (y - py) * (y - py)) / (r * r);
+    BumpMemo& m = ctx.pebble;
+    if (!m.valid || m.cx != cx || m.cy != cy) {
+      const uint64_t hp = hash3(cx, cy, s * 31 + kSaltPebble);
+      m = {true, unitFromHash(hp) < config_.pebble_probability, false, cx, cy, 0, 0, 0, 0};
+      if (m.present) {
+        const uint64_t h1 = mix64(hp), h2 = mix64(h1), h3 = mix64(h2), h4 = mix64(h3);
+        m.r = 0.01 + 0.035 * unitFromHash(h1);
+        m.px = (cx + 0.0) * cell + m.r + (cell - 2 * m.r) * unitFromHash(h2);
+        m.py = (cy + 0.0) * cell + m.r + (cell - 2 * m.r) * unitFromHash(h3);
+        m.shell = unitFromHash(h4) < 0.2;
+        m.albedo = 0.15 + 0.55 * unitFromHash(mix64(h4));
+      }
+    }
+    if (m.present) {
+      const double d2 = ((x - m.px) * (x - m.px) + (y - m.py) * (y - m.py)) / (m.r * m.r);
       if (d2 < 1.0) {
-        const bool shell = unitFromHash(h4) < 0.2;
-        const double top = (shell ? 0.15 : 0.6) * r * std::sqrt(1 - d2);
+        const double top = (m.shell ? 0.15 : 0.6) * m.r * std::sqrt(1 - d2);
         h = std::max(h, base + top);
-        albedo = shell ? 0.85 + 0.08 * std::sqrt(1 - d2) : 0.15 + 0.55 * unitFromHash(mix64(h4)) +
-                                                                0.05 * valueNoise(x, y, 1 / 0.012, s + kSaltPebble, ctx.memo[6]);
+        albedo = m.shell ? 0.85 + 0.08 * std::sqrt(1 - d2)
+                         : m.albedo + 0.05 * valueNoise(x, y, 1 / 0.012, s + kSaltPebble, ctx.memo[6]);
       }
     }
   }
@@ -124,14 +155,22 @@ void Seafloor::evaluate(int64_t i, int64_t j, float* h_out, float* albedo_out, E
   {
     constexpr double cell = 2.0;
     const auto cx = static_cast<int64_t>(std::floor(x / cell)), cy = static_cast<int64_t>(std::floor(y / cell));
-    const uint64_t hr = hash3(cx, cy, s * 31 + kSaltRock);
-    if (unitFromHash(hr) < config_.rock_probability) {
-      const uint64_t h1 = mix64(hr), h2 = mix64(h1), h3 = mix64(h2);
-      const double R = 0.15 + 0.35 * unitFromHash(h1);
-      const double px = cx * cell + R * 1.25 + (cell - 2.5 * R) * unitFromHash(h2);
-      const double py = cy * cell + R * 1.25 + (cell - 2.5 * R) * unitFromHash(h3);
+    BumpMemo& m = ctx.rock;
+    if (!m.valid || m.cx != cx || m.cy != cy) {
+      const uint64_t hr = hash3(cx, cy, s * 31 + kSaltRock);
+      m = {true, unitFromHash(hr) < config_.rock_probability, false, cx, cy, 0, 0, 0, 0};
+      if (m.present) {
+        const uint64_t h1 = mix64(hr), h2 = mix64(h1), h3 = mix64(h2);
+        m.r = 0.15 + 0.35 * unitFromHash(h1);
+        m.px = cx * cell + m.r * 1.25 + (cell - 2.5 * m.r) * unitFromHash(h2);
+        m.py = cy * cell + m.r * 1.25 + (cell - 2.5 * m.r) * unitFromHash(h3);
+      }
+    }
+    // Cheap bounding test first: the outline is at most 1.2 R from the centre.
+    const double dx = x - m.px, dy = y - m.py, R = m.r;
+    if (m.present && dx * dx + dy * dy < 1.44 * R * R) {
       const double Reff = R * (1.0 + 0.2 * valueNoise(x, y, 1 / 0.25, s + kSaltRockTex, ctx.memo[7]));
-      const double d2 = ((x - px) * (x - px) + (y - py) * (y - py)) / (Reff * Reff);
+      const double d2 = (dx * dx + dy * dy) / (Reff * Reff);
       if (d2 < 1.0) {
         const double top = 0.5 * R * std::pow(1 - d2, 0.6) * (1 + 0.15 * valueNoise(x, y, 1 / 0.08, s + kSaltRockTex + 1, ctx.memo[8]));
         h = std::max(h, base + top);
@@ -155,29 +194,17 @@ FloorSample Seafloor::sample(double x, double y) const {
   return sample(x, y, hint);
 }
 
-FloorSample Seafloor::sample(double x, double y, TileHint& hint) const {
-  const double gx = x * inv_res_, gy = y * inv_res_;
-  const double fi = std::floor(gx), fj = std::floor(gy);
-  const auto i0 = static_cast<int64_t>(fi), j0 = static_cast<int64_t>(fj);
-  const auto fx = static_cast<float>(gx - fi), fy = static_cast<float>(gy - fj);
+Seafloor::TileHint Seafloor::hintFor(int64_t i0, int64_t j0) const {
+  const int64_t tx = floorDiv(i0, n_), ty = floorDiv(j0, n_);
+  return {tx * n_, ty * n_, findTile(tx, ty)};
+}
+
+FloorSample Seafloor::sampleDirect(int64_t i0, int64_t j0, float fx, float fy) const {
   float h00, h10, h01, h11, a00, a10, a01, a11;
-  // The hint holds the first sample index of its tile: no division on the common path.
-  if (hint.tile == nullptr || i0 < hint.tx || j0 < hint.ty || i0 >= hint.tx + n_ || j0 >= hint.ty + n_) {
-    const int64_t tx = floorDiv(i0, n_), ty = floorDiv(j0, n_);
-    hint = {tx * n_, ty * n_, findTile(tx, ty)};
-  }
-  if (const auto* t = static_cast<const Tile*>(hint.tile)) {
-    const auto li = static_cast<size_t>(i0 - hint.tx), lj = static_cast<size_t>(j0 - hint.ty);
-    const size_t stride = static_cast<size_t>(n_) + 1, k = lj * stride + li;
-    const auto* p = t->ha.data();
-    h00 = p[k][0], h10 = p[k + 1][0], h01 = p[k + stride][0], h11 = p[k + stride + 1][0];
-    a00 = p[k][1], a10 = p[k + 1][1], a01 = p[k + stride][1], a11 = p[k + stride + 1][1];
-  } else {
-    evaluate(i0, j0, &h00, &a00);
-    evaluate(i0 + 1, j0, &h10, &a10);
-    evaluate(i0, j0 + 1, &h01, &a01);
-    evaluate(i0 + 1, j0 + 1, &h11, &a11);
-  }
+  evaluate(i0, j0, &h00, &a00);
+  evaluate(i0 + 1, j0, &h10, &a10);
+  evaluate(i0, j0 + 1, &h01, &a01);
+  evaluate(i0 + 1, j0 + 1, &h11, &a11);
   FloorSample s;
   const auto inv = static_cast<float>(inv_res_);
   const float hb = h00 + fx * (h10 - h00), ht = h01 + fx * (h11 - h01);
@@ -187,6 +214,93 @@ FloorSample Seafloor::sample(double x, double y, TileHint& hint) const {
   const float ab = a00 + fx * (a10 - a00), at = a01 + fx * (a11 - a01);
   s.albedo = ab + fy * (at - ab);
   return s;
+}
+
+void Seafloor::fillRows(Tile& t, int j0, int j1) const {
+  // Noise lattice values are hashed once per lattice row and column of the tile instead of
+  // four per sample: the column positions (cell index and fade) are the same on every row,
+  // and consecutive rows share a lattice row. Same arithmetic as valueNoise(), so the
+  // cached and direct paths agree bit for bit.
+  const int stride = n_ + 1;
+  const int64_t gi0 = t.tx * n_;
+  struct Octave {
+    int64_t ix0 = 0, iy = 0;
+    bool rows_valid = false;
+    std::vector<int> col;       // lattice column of sample i, relative to ix0
+    std::vector<double> fx;     // faded fraction of sample i
+    std::vector<double> lo, hi; // lattice rows iy and iy + 1
+  };
+  std::array<Octave, kOctaves> oct;
+  for (int o = 0; o < kOctaves; ++o) {
+    auto& q = oct[o];
+    q.col.resize(stride);
+    q.fx.resize(stride);
+    for (int i = 0; i < stride; ++i) {
+      const double X = static_cast<double>(gi0 + i) * res_ * kOctaveInvScale[o];
+      const double fx0 = std::floor(X);
+      if (i == 0) q.ix0 = static_cast<int64_t>(fx0);
+      q.col[i] = static_cast<int>(static_cast<int64_t>(fx0) - q.ix0);
+      const double f = X - fx0;
+      q.fx[i] = f * f * (3 - 2 * f);
+    }
+    q.lo.resize(q.col.back() + 2);
+    q.hi.resize(q.col.back() + 2);
+  }
+  const auto& waves = relief_.waves();
+  std::vector<std::array<double, 4>> rot(waves.size());  // sin, cos, sin(step), cos(step)
+  for (int j = j0; j < j1; ++j) {
+    const int64_t gj = t.ty * n_ + j;
+    const double y = static_cast<double>(gj) * res_;
+    double fy[kOctaves];
+    for (int o = 0; o < kOctaves; ++o) {
+      auto& q = oct[o];
+      const double Y = y * kOctaveInvScale[o];
+      const double fy0 = std::floor(Y);
+      const auto iy = static_cast<int64_t>(fy0);
+      const double f = Y - fy0;
+      fy[o] = f * f * (3 - 2 * f);
+      if (q.rows_valid && iy == q.iy) continue;
+      const uint64_t salt = octaveSalt(seed_, o);
+      const bool shift = q.rows_valid && iy == q.iy + 1;
+      if (shift) std::swap(q.lo, q.hi);
+      for (size_t k = 0; k < q.lo.size(); ++k) {
+        const auto a = q.ix0 + static_cast<int64_t>(k);
+        if (!shift) q.lo[k] = latticeValue(a, iy, salt);
+        q.hi[k] = latticeValue(a, iy + 1, salt);
+      }
+      q.iy = iy;
+      q.rows_valid = true;
+    }
+    // The relief's sines along the row by rotation recurrence: one sin/cos per wave per row.
+    for (size_t w = 0; w < waves.size(); ++w) {
+      const auto& wv = waves[w];
+      const double arg = wv.kx * static_cast<double>(gi0) * res_ + wv.ky * y + wv.phase;
+      rot[w] = {std::sin(arg), std::cos(arg), std::sin(wv.kx * res_), std::cos(wv.kx * res_)};
+    }
+    EvalContext ctx;
+    for (int i = 0; i < stride; ++i) {
+      ctx.base = 0;
+      for (size_t w = 0; w < waves.size(); ++w) {
+        auto& r = rot[w];
+        ctx.base += waves[w].a * r[0];
+        const double s0 = r[0] * r[3] + r[1] * r[2];
+        r[1] = r[1] * r[3] - r[0] * r[2];
+        r[0] = s0;
+      }
+      double noise[kOctaves];
+      for (int o = 0; o < kOctaves; ++o) {
+        const auto& q = oct[o];
+        const int c = q.col[i];
+        const double fx = q.fx[i];
+        const double a = q.lo[c] + fx * (q.lo[c + 1] - q.lo[c]);
+        const double b = q.hi[c] + fx * (q.hi[c + 1] - q.hi[c]);
+        noise[o] = a + fy[o] * (b - a);
+      }
+      const double x = static_cast<double>(gi0 + i) * res_;
+      const size_t k = static_cast<size_t>(j) * stride + i;
+      compose(x, y, noise, ctx, &t.ha[k][0], &t.ha[k][1]);
+    }
+  }
 }
 
 void Seafloor::prepare(double x0, double y0, double x1, double y1) {
@@ -223,34 +337,17 @@ void Seafloor::prepare(double x0, double y0, double x1, double y1) {
     tiles_.pop_back();
   }
   const int stride = n_ + 1;
-  for (Tile* t : fresh) {
-    t->ha.resize(static_cast<size_t>(stride) * stride);
-    cv::parallel_for_(cv::Range(0, stride), [&](const cv::Range& rows) {
-      for (int j = rows.start; j < rows.end; ++j) {
-        EvalContext ctx;
-        const int64_t gi0 = t->tx * n_, gj = t->ty * n_ + j;
-        // The relief's sines along the row by rotation recurrence: one sin/cos per wave per row.
-        const auto& waves = relief_.waves();
-        std::vector<std::array<double, 4>> rot;  // sin, cos, sin(step), cos(step)
-        for (const auto& w : waves) {
-          const double arg = w.kx * static_cast<double>(gi0) * res_ + w.ky * static_cast<double>(gj) * res_ + w.phase;
-          rot.push_back({std::sin(arg), std::cos(arg), std::sin(w.kx * res_), std::cos(w.kx * res_)});
-        }
-        for (int i = 0; i < stride; ++i) {
-          ctx.base = 0;
-          for (size_t w = 0; w < waves.size(); ++w) {
-            auto& r = rot[w];
-            ctx.base += waves[w].a * r[0];
-            const double s0 = r[0] * r[3] + r[1] * r[2];
-            r[1] = r[1] * r[3] - r[0] * r[2];
-            r[0] = s0;
-          }
-          const size_t k = static_cast<size_t>(j) * stride + i;
-          evaluate(gi0 + i, gj, &t->ha[k][0], &t->ha[k][1], ctx);
-        }
-      }
-    });
-  }
+  for (Tile* t : fresh) t->ha.resize(static_cast<size_t>(stride) * stride);
+  if (fresh.empty()) return;
+  // Bands of rows of every fresh tile, spread over the cores; a band shares lattice rows.
+  constexpr int kBands = 8;
+  const int total = static_cast<int>(fresh.size()) * kBands;
+  cv::parallel_for_(cv::Range(0, total), [&](const cv::Range& r) {
+    for (int b = r.start; b < r.end; ++b) {
+      const int band = b % kBands;
+      fillRows(*fresh[static_cast<size_t>(b / kBands)], band * stride / kBands, (band + 1) * stride / kBands);
+    }
+  }, total);
 }
 
 }  // namespace seavio::simulate

@@ -4,6 +4,7 @@
 /// are cached in lazily generated tiles (bilinear lookup, LRU) so rendering never evaluates
 /// noise per ray.
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <list>
 #include <memory>
@@ -62,7 +63,8 @@ class Seafloor {
   /// the same four grid samples directly, so both paths agree (to float rounding).
   FloorSample sample(double x, double y) const;
   /// Same, remembering the last tile in `hint` (start with {}): spares the hash lookup on the
-  /// next call nearby. Hints are valid until the next prepare().
+  /// next call nearby. Hints are valid until the next prepare(). Inline: the renderer calls
+  /// it a few times per pixel.
   struct TileHint {
     int64_t tx = 0, ty = 0;  ///< global index of the tile's first sample
     const void* tile = nullptr;
@@ -78,12 +80,25 @@ class Seafloor {
   double resolution() const { return res_; }
   int cachedTiles() const { return static_cast<int>(tiles_.size()); }
 
+  /// Value-noise octaves of the sand (domain warp, then albedo from 1.5 m down to 1.6 cm).
+  static constexpr int kOctaves = 6;
+
  private:
+  /// Pebble or rock of the last cell visited: the cell hash and shape change every few dozen
+  /// samples only.
+  struct BumpMemo {
+    bool valid = false, present = false, shell = false;
+    int64_t cx = 0, cy = 0;
+    double r = 0, px = 0, py = 0, albedo = 0;
+  };
   struct EvalContext {
     NoiseMemo memo[16];
+    BumpMemo pebble, rock;
     double base = 0;  ///< relief height at the sample
   };
-  void evaluate(int64_t i, int64_t j, float* h, float* albedo, EvalContext& ctx) const;
+  /// Height and albedo from the relief height `ctx.base` and the sand octaves `noise`
+  /// (kOctaves values in [-1, 1]); shared by the direct and the tiled paths.
+  void compose(double x, double y, const double* noise, EvalContext& ctx, float* h, float* albedo) const;
   struct Tile {
     int64_t tx = 0, ty = 0;
     /// (n+1) x (n+1) samples, row j, column i, height and albedo interleaved so one bilinear
@@ -94,6 +109,10 @@ class Seafloor {
     return (static_cast<uint64_t>(tx) << 32) ^ (static_cast<uint64_t>(ty) & 0xffffffffULL);
   }
   const Tile* findTile(int64_t tx, int64_t ty) const;
+  TileHint hintFor(int64_t i0, int64_t j0) const;
+  FloorSample sampleDirect(int64_t i0, int64_t j0, float fx, float fy) const;
+  /// Fills rows [j0, j1) of `t` (lattice rows of the octaves shared along the range).
+  void fillRows(Tile& t, int j0, int j1) const;
 
   SeafloorConfig config_;
   uint32_t seed_;
@@ -104,6 +123,35 @@ class Seafloor {
   std::list<std::unique_ptr<Tile>> tiles_;  ///< front = most recently used
   std::unordered_map<uint64_t, Tile*> index_;
 };
+
+inline FloorSample Seafloor::sample(double x, double y, TileHint& hint) const {
+  const double gx = x * inv_res_, gy = y * inv_res_;
+  // floor() by truncation and a correction: std::floor is a libm call or a long sequence
+  // without SSE4.1, and this is the renderer's innermost loop.
+  auto i0 = static_cast<int64_t>(gx), j0 = static_cast<int64_t>(gy);
+  i0 -= static_cast<double>(i0) > gx;
+  j0 -= static_cast<double>(j0) > gy;
+  const auto fx = static_cast<float>(gx - static_cast<double>(i0)), fy = static_cast<float>(gy - static_cast<double>(j0));
+  // The hint holds the first sample index of its tile: no division on the common path.
+  if (hint.tile == nullptr || i0 < hint.tx || j0 < hint.ty || i0 >= hint.tx + n_ || j0 >= hint.ty + n_)
+    hint = hintFor(i0, j0);
+  const auto* t = static_cast<const Tile*>(hint.tile);
+  if (t == nullptr) return sampleDirect(i0, j0, fx, fy);
+  const auto li = static_cast<size_t>(i0 - hint.tx), lj = static_cast<size_t>(j0 - hint.ty);
+  const size_t stride = static_cast<size_t>(n_) + 1, k = lj * stride + li;
+  const auto* p = t->ha.data();
+  const float h00 = p[k][0], h10 = p[k + 1][0], h01 = p[k + stride][0], h11 = p[k + stride + 1][0];
+  const float a00 = p[k][1], a10 = p[k + 1][1], a01 = p[k + stride][1], a11 = p[k + stride + 1][1];
+  FloorSample s;
+  const auto inv = static_cast<float>(inv_res_);
+  const float hb = h00 + fx * (h10 - h00), ht = h01 + fx * (h11 - h01);
+  s.h = hb + fy * (ht - hb);
+  s.hx = ((1 - fy) * (h10 - h00) + fy * (h11 - h01)) * inv;
+  s.hy = ((1 - fx) * (h01 - h00) + fx * (h11 - h10)) * inv;
+  const float ab = a00 + fx * (a10 - a00), at = a01 + fx * (a11 - a01);
+  s.albedo = ab + fy * (at - ab);
+  return s;
+}
 
 /// 64-bit integer hash (splitmix64 finaliser), the base of all procedural randomness.
 inline uint64_t mix64(uint64_t x) {

@@ -24,8 +24,11 @@ class SeafloorRenderer {
 
   /// Renders camera `cam` (0 left, 1 right) with the body at `T_W_B` at trajectory time
   /// `t_s` [s] into `image` (CV_8UC1, width x height of the rig). `noise_key` selects the
-  /// sensor-noise pattern (same key, same image). Returns the number of snow particles drawn.
-  int render(int cam, const Eigen::Isometry3d& T_W_B, double t_s, uint64_t noise_key, cv::Mat& image);
+  /// sensor-noise pattern (same key, same image); `condition` takes vision away (issue 9).
+  /// Rows are shaded in parallel; the image does not depend on the number of threads.
+  /// Returns the number of snow particles drawn.
+  int render(int cam, const Eigen::Isometry3d& T_W_B, double t_s, uint64_t noise_key, cv::Mat& image,
+             VisionLoss condition = VisionLoss::kNone);
 
   /// First intersection of the ray o_W + lambda d_W (lambda > 0) with the seafloor [W].
   std::optional<Eigen::Vector3d> intersect(const Eigen::Vector3d& o_W, const Eigen::Vector3d& d_W) const;
@@ -42,6 +45,12 @@ class SeafloorRenderer {
   double radiance(const Eigen::Vector3d& X, const Eigen::Vector3d& n, const std::vector<Eigen::Vector3d>& lights_W,
                   double range_cam) const;
   double irradiance(const Eigen::Vector3d& X, const Eigen::Vector3d& n, const std::vector<Eigen::Vector3d>& lights_W) const;
+  /// Shades the floor into radiance_ (ray casting, one row per task).
+  void shadeFloor(int cam, const Eigen::Isometry3d& T_W_C, const std::vector<Eigen::Vector3d>& lights_W,
+                  double attenuation, double veil, VisionLoss condition);
+  /// Draws the marine snow in view into radiance_; returns the number inside the image.
+  int drawSnow(int cam, const Eigen::Isometry3d& T_W_C, const std::vector<Eigen::Vector3d>& lights_W, double t_s,
+               const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, double attenuation);
 
   SimConfig config_;
   const StereoRigModel& rig_;

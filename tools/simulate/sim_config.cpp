@@ -1,12 +1,13 @@
 #include "tools/simulate/sim_config.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
 
 namespace seavio::simulate {
 
-std::vector<std::string> presetNames() { return {"paper-plain", "paper-snow", "short-plain", "short-snow"}; }
+std::vector<std::string> presetNames() { return {"paper-plain", "paper-snow", "short-plain", "short-snow", "short-outage"}; }
 
 SimConfig presetConfig(const std::string& name) {
   SimConfig c;
@@ -15,7 +16,7 @@ SimConfig presetConfig(const std::string& name) {
     // Section IV: 3000 frames, ~4.5 km, so ~1.5 m between frames at 1 Hz and 1.5 m/s.
     c.frames = 3000;
     c.frame_rate_hz = 1.0;
-  } else if (name == "short-plain" || name == "short-snow") {
+  } else if (name == "short-plain" || name == "short-snow" || name == "short-outage") {
     // 80 s: a 40 m leg, one 180 deg turn, most of the way back: ~77 m for a quick start.
     c.frames = 800;
     c.frame_rate_hz = 10.0;
@@ -26,6 +27,8 @@ SimConfig presetConfig(const std::string& name) {
     c.trajectory.max_yaw_rate_rad_s = 0.5;
     c.trajectory.max_yaw_accel_rad_s2 = 0.15;
     c.trajectory.accel_s = 3.0;
+    if (name == "short-outage")  // on the first leg, then on the way back after the turn
+      c.vision_loss.stretches = {{VisionLoss::kBlackout, 20.0, 3.0}, {VisionLoss::kTurbidity, 50.0, 3.0}};
   } else {
     std::ostringstream os;
     os << "unknown preset '" << name << "' (valid:";
@@ -78,8 +81,80 @@ void validate(const SimConfig& c) {
   check(c.snow.density_per_m3 >= 0 && c.snow.density_per_m3 <= 1000, "snow density", "must be in [0, 1000] /m^3");
   check(c.snow.cell_m > 0.1 && c.snow.radius_min_m > 0 && c.snow.radius_max_m >= c.snow.radius_min_m,
         "snow", "cell > 0.1 m and 0 < radius_min <= radius_max");
+  const double last_frame_s = (c.frames - 1) / std::max(c.frame_rate_hz, 1e-9);
+  for (size_t i = 0; i < c.vision_loss.stretches.size(); ++i) {
+    const auto& v = c.vision_loss.stretches[i];
+    check(v.kind != VisionLoss::kNone, "vision-loss", "kind must not be none");
+    check(v.start_s >= 0 && v.duration_s > 0, "vision-loss", "start must be >= 0 s and duration > 0 s");
+    check(v.start_s <= last_frame_s, "vision-loss", "stretch starts after the last frame");
+    for (size_t j = 0; j < i; ++j) {
+      const auto& w = c.vision_loss.stretches[j];
+      check(v.start_s >= w.start_s + w.duration_s || w.start_s >= v.start_s + v.duration_s, "vision-loss",
+            "stretches must not overlap");
+    }
+  }
+  check(c.vision_loss.altitude_m > c.trajectory.altitude_m && c.vision_loss.altitude_m <= 100, "vision-loss altitude",
+        "must be above the survey altitude and <= 100 m");
+  check(c.vision_loss.turbid_attenuation_per_m > 0 && c.vision_loss.turbid_backscatter >= 0, "vision-loss turbidity",
+        "attenuation > 0 and backscatter >= 0");
   const std::string e = errors.str();
   if (!e.empty()) throw std::invalid_argument("invalid simulation parameters:" + e);
+}
+
+const char* visionLossName(VisionLoss kind) {
+  switch (kind) {
+    case VisionLoss::kBlackout: return "blackout";
+    case VisionLoss::kTurbidity: return "turbidity";
+    case VisionLoss::kFeatureless: return "featureless";
+    case VisionLoss::kAltitude: return "altitude";
+    case VisionLoss::kNone: break;
+  }
+  return "none";
+}
+
+VisionLossStretch parseVisionLoss(const std::string& text) {
+  const auto fail = [&text](const std::string& why) {
+    return std::invalid_argument("--vision-loss '" + text + "': " + why +
+                                 " (expected KIND:START_S:DURATION_S, KIND one of blackout, turbidity, featureless, "
+                                 "altitude)");
+  };
+  const auto c1 = text.find(':');
+  const auto c2 = c1 == std::string::npos ? std::string::npos : text.find(':', c1 + 1);
+  if (c2 == std::string::npos || text.find(':', c2 + 1) != std::string::npos) throw fail("need three fields");
+  VisionLossStretch v;
+  const std::string kind = text.substr(0, c1);
+  bool known = false;
+  for (VisionLoss k : {VisionLoss::kBlackout, VisionLoss::kTurbidity, VisionLoss::kFeatureless, VisionLoss::kAltitude})
+    if (kind == visionLossName(k)) v.kind = k, known = true;
+  if (!known) throw fail("unknown kind '" + kind + "'");
+  const auto number = [&](const std::string& field, const char* what) {
+    size_t used = 0;
+    double value = 0;
+    try {
+      value = std::stod(field, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (field.empty() || used != field.size() || !std::isfinite(value))
+      throw fail(std::string("bad ") + what + " '" + field + "'");
+    return value;
+  };
+  v.start_s = number(text.substr(c1 + 1, c2 - c1 - 1), "START_S");
+  v.duration_s = number(text.substr(c2 + 1), "DURATION_S");
+  if (v.start_s < 0 || v.duration_s <= 0) throw fail("START_S must be >= 0 and DURATION_S > 0");
+  return v;
+}
+
+std::pair<int64_t, int64_t> visionLossBoundsNs(const VisionLossStretch& v) {
+  return {std::llround(v.start_s * 1e9), std::llround((v.start_s + v.duration_s) * 1e9)};
+}
+
+VisionLoss visionLossAt(const SimConfig& config, int64_t t_ns) {
+  for (const auto& v : config.vision_loss.stretches) {
+    const auto [start, end] = visionLossBoundsNs(v);
+    if (t_ns >= start && t_ns < end) return v.kind;
+  }
+  return VisionLoss::kNone;
 }
 
 }  // namespace seavio::simulate

@@ -4,6 +4,7 @@
 #include <array>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -84,6 +85,36 @@ struct SnowConfig {
   double min_range_m = 0.3;          ///< particles closer than this are out of focus: skipped
 };
 
+/// What takes vision away during a stretch of the sequence (issue 9). Ground truth and IMU
+/// are unaffected: only the images change.
+enum class VisionLoss {
+  kNone,
+  kBlackout,     ///< lights off: black images with sensor noise only
+  kTurbidity,    ///< strong attenuation and backscatter: a uniform veil, floor contrast ~0
+  kFeatureless,  ///< flat sand of uniform albedo: smooth shading, no texture
+  kAltitude,     ///< the floor drops away to VisionLossConfig::altitude_m below the vehicle
+};
+
+/// One stretch [start_s, start_s + duration_s) of trajectory time (0 = first frame).
+struct VisionLossStretch {
+  VisionLoss kind = VisionLoss::kBlackout;
+  double start_s = 0;     ///< [s]
+  double duration_s = 0;  ///< [s]
+};
+
+struct VisionLossConfig {
+  std::vector<VisionLossStretch> stretches;
+  double turbid_attenuation_per_m = 1.5;  ///< absorption in the turbid water [1/m]
+  double turbid_backscatter = 0.9;        ///< veil at infinite range, fraction of target_grey
+  double altitude_m = 15.0;               ///< floor distance in `altitude` stretches [m]
+};
+
+/// "blackout", "turbidity", "featureless", "altitude" (kNone: "none").
+const char* visionLossName(VisionLoss kind);
+/// Parses KIND:START_S:DURATION_S (e.g. "blackout:20:3"); throws std::invalid_argument
+/// naming the option and the bad field.
+VisionLossStretch parseVisionLoss(const std::string& text);
+
 struct SimConfig {
   std::string preset = "custom";
   uint32_t seed = 1;
@@ -97,14 +128,20 @@ struct SimConfig {
   SeafloorConfig seafloor;
   LightingConfig lighting;
   SnowConfig snow;
+  VisionLossConfig vision_loss;
 };
 
 /// Names accepted by presetConfig.
 std::vector<std::string> presetNames();
 /// "paper-plain", "paper-snow" (section IV: 3000 frames, 5 legs over 400 x 250 m),
-/// "short-plain", "short-snow" (~77 m, 10 Hz, one turn). Throws std::invalid_argument.
+/// "short-plain", "short-snow" (~77 m, 10 Hz, one turn), "short-outage" (short-plain with a
+/// 3 s blackout at 20 s and a 3 s turbidity stretch at 50 s). Throws std::invalid_argument.
 SimConfig presetConfig(const std::string& name);
 /// Throws std::invalid_argument naming the first bad parameter (option-style key).
 void validate(const SimConfig& config);
+/// Bounds of a stretch in integer ns since the first frame: [start, end), rounded to 1 ns.
+std::pair<int64_t, int64_t> visionLossBoundsNs(const VisionLossStretch& stretch);
+/// Condition of the images `t_ns` nanoseconds after the first frame (first stretch containing it).
+VisionLoss visionLossAt(const SimConfig& config, int64_t t_ns);
 
 }  // namespace seavio::simulate

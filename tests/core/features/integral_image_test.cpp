@@ -57,3 +57,27 @@ TEST(IntegralImage, RejectsColourImages) {
 
 }  // namespace
 }  // namespace seavio::features
+
+// The table is not zero-filled on reuse: a rebuild for a smaller (then larger) image must
+// still give the same table as a fresh object, borders included.
+TEST(IntegralImage, ReuseForAnotherSizeEqualsAFreshTable) {
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<int> grey(0, 255);
+  auto random = [&](int w, int h) {
+    cv::Mat m(h, w, CV_8UC1);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) m.at<uint8_t>(y, x) = static_cast<uint8_t>(grey(rng));
+    return m;
+  };
+  seavio::features::IntegralImage reused(random(40, 30));
+  for (const cv::Size size : {cv::Size(17, 11), cv::Size(40, 30), cv::Size(5, 60)}) {
+    const cv::Mat img = random(size.width, size.height);
+    reused.compute(img);
+    const seavio::features::IntegralImage fresh(img);
+    ASSERT_EQ(reused.width(), size.width);
+    ASSERT_EQ(reused.height(), size.height);
+    for (int y = 0; y <= size.height; ++y)
+      for (int x = 0; x <= size.width; ++x) ASSERT_EQ(reused.at(x, y), fresh.at(x, y)) << x << "," << y;
+    EXPECT_EQ(reused.boxSum(0, 0, size.width, size.height), static_cast<uint32_t>(cv::sum(img)[0]));
+  }
+}

@@ -71,5 +71,55 @@ TEST(OdometryConfig, FileErrorsThrowWithThePath) {
   EXPECT_NO_THROW(loadOdometryParamsFile(std::string(SEAVIO_SOURCE_DIR) + "/config/seavio.yaml"));
 }
 
+/// The message of the InputError thrown by loadOdometryParamsFile for `text`, or "" if none.
+std::string loadError(const std::string& text, const std::string& name) {
+  const std::string path = testing::TempDir() + "/" + name;
+  std::ofstream(path) << text;
+  try {
+    loadOdometryParamsFile(path);
+  } catch (const drivers::InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(OdometryConfigBadInput, EveryErrorNamesTheFileAndTheKey) {
+  struct Case {
+    const char* text;
+    const char* key;  ///< expected in the message after the path
+  };
+  const Case cases[] = {
+      {"daemon: {}\n", "odometry: missing section"},
+      {"- odometry\n", "odometry: missing section"},
+      {"odometry: [1, 2]\n", "odometry: expected a mapping"},
+      {"odometry: {icp: 5}\n", "odometry.icp: expected a mapping"},
+      {"odometry: {icp: {max_iterations: 1.5}}\n", "odometry.icp.max_iterations: expected an integer"},
+      {"odometry: {ransac: {confidence: [0.9]}}\n", "odometry.ransac.confidence: expected a number"},
+      {"odometry: {stereo: {left_right_check: maybe}}\n", "odometry.stereo.left_right_check: expected true or false"},
+      {"odometry: {map: {voxel_size_m: .nan}}\n", "odometry.map.voxel_size_m"},
+      {"odometry: {features: {type: {a: 1}}}\n", "odometry.features.type"},
+      {"odometry: {min_inliers: 10\n", "line"},
+  };
+  int i = 0;
+  for (const Case& c : cases) {
+    const std::string name = "bad" + std::to_string(i++) + ".yaml";
+    const std::string msg = loadError(c.text, name);
+    EXPECT_NE(msg.find(name), std::string::npos) << c.text << " -> " << msg;
+    EXPECT_NE(msg.find(c.key), std::string::npos) << c.text << " -> " << msg;
+  }
+}
+
+TEST(OdometryConfigBadInput, NonScalarKeyIsAnErrorNotAnException) {
+  // Found by fuzz_odometry_config: a list used as a key escaped as YAML::TypedBadConversion
+  // (seaviod swallowed it and ran with the rest of the section unchecked).
+  const std::string msg = loadError("odometry:\n  icp:\n    [a, b]: 1\n  ? {c: 1}\n  : 2\n", "key.yaml");
+  EXPECT_NE(msg.find("key.yaml: odometry.icp: a key must be a plain name (line 3)"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("key.yaml: odometry: a key must be a plain name (line 4)"), std::string::npos) << msg;
+  odometry::OdometryParams p;
+  std::vector<std::string> errors;
+  EXPECT_NO_THROW(parseOdometryParams(YAML::Load("{[1]: 2}"), "x.yaml", p, errors));
+  EXPECT_EQ(errors.size(), 1u);
+}
+
 }  // namespace
 }  // namespace seavio::config

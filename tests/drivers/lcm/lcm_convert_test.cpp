@@ -131,3 +131,47 @@ TEST(LcmConvert, ImuRoundTrip) {
 
 }  // namespace
 }  // namespace seavio::drivers
+
+namespace seavio::drivers {
+namespace {
+
+TEST(LcmConvert, PoseTimingListsStagesAndAcquisitionOnlyOnTheDaemonClock) {
+  OdometryResult r;
+  r.t_ns = 1'000'000'000;
+  r.times.rectify_ms = 1;
+  r.times.features_ms = 20;
+  r.times.stereo_ms = 3;
+  r.times.temporal_ms = 4;
+  r.times.tensor_ms = 5;
+  r.times.icp_ms = 6;
+  r.times.total_ms = 40;
+  // Captured at 1.000 s, received 5 ms later, odometry done 50 ms after receipt, published 1 ms later.
+  const int64_t recv = 1'005'000'000, end = 1'055'000'000, pub = 1'056'000'000;
+  seavio_lcm::pose_t m = toPoseMsg(r, pub);
+  setPoseTiming(m, r.times, recv, end, pub);
+  EXPECT_EQ(m.recv_t_ns, recv);
+  ASSERT_EQ(m.num_stages, 9);
+  EXPECT_EQ(m.stage_names, (std::vector<std::string>{"acquisition", "queue", "rectify", "features", "stereo",
+                                                     "temporal", "tensor", "icp", "publish"}));
+  EXPECT_NEAR(m.stage_ms[0], 5.0, 1e-9);
+  EXPECT_NEAR(m.stage_ms[1], 10.0, 1e-9);  // 50 ms receipt to end, 40 ms of it odometry
+  EXPECT_NEAR(m.stage_ms[3], 20.0, 1e-9);
+  EXPECT_NEAR(m.stage_ms[8], 1.0, 1e-9);
+  // Round trip through the wire format.
+  std::vector<uint8_t> buf(static_cast<std::size_t>(m.getEncodedSize()));
+  ASSERT_GE(m.encode(buf.data(), 0, static_cast<int>(buf.size())), 0);
+  seavio_lcm::pose_t back{};
+  ASSERT_GE(back.decode(buf.data(), 0, static_cast<int>(buf.size())), 0);
+  EXPECT_EQ(back.stage_names, m.stage_names);
+  EXPECT_EQ(back.version, 2);
+  // A replayed dataset's stamp (another epoch): no acquisition stage; no odometry split: only queue and publish.
+  r.t_ns = 1'403'636'579'763'555'584;  // EuRoC-style Unix epoch stamp
+  r.times = StageTimes{};
+  seavio_lcm::pose_t n = toPoseMsg(r, pub);
+  setPoseTiming(n, r.times, recv, end, pub);
+  EXPECT_EQ(n.stage_names, (std::vector<std::string>{"queue", "publish"}));
+  EXPECT_NEAR(n.stage_ms[0], 50.0, 1e-9);
+}
+
+}  // namespace
+}  // namespace seavio::drivers

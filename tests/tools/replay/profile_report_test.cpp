@@ -115,3 +115,97 @@ TEST(ProfileReport, WritesJsonAndPlot) {
 
 }  // namespace
 }  // namespace seavio::tools
+
+namespace seavio::tools {
+namespace {
+
+/// 50 version-2 poses whose receive time is on a clock other than the capture stamps (as in
+/// a dataset replay), so the end-to-end basis is receive to publish. Frame i has features
+/// i + 1 ms, a 4 ms queue and 0.5 ms publish; frame 0 (initialisation) has no odometry stages.
+DaemonOutputLog stagedLog(const std::string& path) {
+  {
+    drivers::LcmLogWriter w(path);
+    for (int i = 0; i < 50; ++i) {
+      OdometryResult r = test::helixPose(i);
+      r.times = StageTimes{};
+      if (i > 0) {
+        r.times.features_ms = i + 1.0;
+        r.times.tensor_ms = 2.0;
+        r.times.total_ms = i + 3.0;
+      }
+      const int64_t recv = 5'000'000'000'000LL + i * 66'666'667LL;  // daemon clock, far from t_ns
+      const int64_t proc_end = recv + static_cast<int64_t>((r.times.total_ms + 4.0) * 1e6);  // 4 ms queue
+      const int64_t pub = proc_end + 500'000;
+      seavio_lcm::pose_t m = drivers::toPoseMsg(r, pub);
+      drivers::setPoseTiming(m, r.times, recv, proc_end, pub);
+      w.write("SEAVIO_POSE", m, pub / 1000);
+    }
+  }
+  return readDaemonOutputLog(path);
+}
+
+TEST(ProfileReport, PerStageFiguresComeFromVersion2Poses) {
+  test::Scratch dir("stages");
+  const DaemonOutputLog log = stagedLog(dir.file("s.lcmlog"));
+  ASSERT_EQ(log.poses.size(), 50u);
+  const ProfileReport r = computeProfile(log);
+  EXPECT_EQ(r.end_to_end_basis, "receive_to_publish");
+  std::vector<std::string> names;
+  for (const LatencyStats& s : r.stages) names.push_back(s.name);
+  // Frame 0 has only queue and publish; the odometry stages seen later slot in between.
+  EXPECT_EQ(names, (std::vector<std::string>{"queue", "rectify", "features", "stereo", "temporal", "tensor", "icp",
+                                             "publish"}));
+  const LatencyStats& features = r.stages[2];
+  EXPECT_EQ(features.count, 49u);
+  EXPECT_NEAR(features.p50_ms, 26.0, 1e-9);  // values 2..50, nearest rank 25 of 49
+  EXPECT_NEAR(features.max_ms, 50.0, 1e-9);
+  EXPECT_NEAR(r.stages[0].p99_ms, 4.0, 1e-6);
+  EXPECT_NEAR(r.stages[7].p50_ms, 0.5, 1e-6);
+  // End to end = receive to publish = total + 4 + 0.5 ms: frame 49 -> 56.5 ms.
+  EXPECT_NEAR(r.per_frame.back().max_ms, 56.5, 1e-6);
+  EXPECT_EQ(r.over_budget, 0u);
+  std::ostringstream out;
+  printProfile(out, r);
+  EXPECT_NE(out.str().find("per stage"), std::string::npos) << out.str();
+  EXPECT_NE(out.str().find("receive_to_publish"), std::string::npos);
+}
+
+TEST(ProfileReport, WindowKeepsThePosesPublishedInsideIt) {
+  test::Scratch dir("window");
+  const DaemonOutputLog log = stagedLog(dir.file("w.lcmlog"));
+  // Published every 66.7 ms (plus the processing): the first second holds frames 0..14.
+  const DaemonOutputLog first = windowOf(log, 0.0, 1.0);
+  ASSERT_FALSE(first.poses.empty());
+  EXPECT_EQ(first.poses.front().msg.seq, 0);
+  EXPECT_LT(first.poses.size(), 16u);
+  EXPECT_GT(first.poses.size(), 12u);
+  const DaemonOutputLog rest = windowOf(log, 1.0, 0.0);
+  EXPECT_EQ(first.poses.size() + rest.poses.size(), 50u);
+  EXPECT_EQ(rest.poses.back().msg.seq, 49);
+}
+
+TEST(ProfileReport, UnknownChannelsAreListedAndDamageSaysWhere) {
+  test::Scratch dir("where");
+  const std::string path = dir.file("x.lcmlog");
+  {
+    drivers::LcmLogWriter w(path);
+    test::writePoseLog(w, 4, [](int) { return 2.0; });
+    const uint8_t junk[16] = {1};
+    ASSERT_TRUE(w.writeRaw("ROV_DEPTH", junk, sizeof junk, 5));
+    ASSERT_TRUE(w.writeRaw("SEAVIO_POSE", junk, sizeof junk, 6));  // event 5
+    test::writePoseLog(w, 2, [](int) { return 2.0; });
+  }
+  const DaemonOutputLog log = readDaemonOutputLog(path);
+  EXPECT_EQ(log.poses.size(), 6u);
+  EXPECT_EQ(log.stats.other_channels.at("ROV_DEPTH"), 1u);
+  const std::string d = describeDamage(log.stats, path);
+  EXPECT_NE(d.find("event 5"), std::string::npos) << d;
+  EXPECT_NE(d.find("message on SEAVIO_POSE does not decode"), std::string::npos) << d;
+  std::ostringstream out;
+  printProfile(out, computeProfile(log));
+  EXPECT_NE(out.str().find("1 on ROV_DEPTH"), std::string::npos) << out.str();
+  EXPECT_NE(out.str().find("1 undecodable"), std::string::npos) << out.str();
+}
+
+}  // namespace
+}  // namespace seavio::tools

@@ -1,5 +1,5 @@
 // GIVEN a 30-frame simulated sequence at 15 fps converted to an LCM log, WHEN the daemon
-// library replays it from the log (LCM file provider in, LCM file provider out) in
+// library replays it from the log (file:// LCM sources in, LCM file provider out) in
 // deterministic mode, THEN every frame is processed, none is dropped, and the poses in the
 // daemon's output log equal those of core Odometry run directly on the dataset (`seavio run`).
 #include <gtest/gtest.h>
@@ -60,7 +60,7 @@ TEST(ReplayEndToEnd, DaemonFromLcmLogGivesTheSamePosesAsSeavioRun) {
   std::string error;
   auto processor = daemon::OdometryProcessor::create(ds.calibration, ds.imu_noise, {}, &error);
   ASSERT_TRUE(processor) << error;
-  // The LCM file provider hands over one event per handle(): consumer paced, nothing lost.
+  // speed=0: the file:// sources hand over the next event when asked: consumer paced, nothing lost.
   const std::string replay_url = "file://" + in + "?speed=0";
   {
     daemon::Daemon d(cfg, std::make_unique<drivers::LcmStereoSource>(replay_url, "SEAVIO_STEREO"),

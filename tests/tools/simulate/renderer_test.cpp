@@ -2,6 +2,9 @@
 // marine snow appears only when asked and at the true disparity, and renders are repeatable.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+
 #include <opencv2/imgproc.hpp>
 
 #include "tools/simulate/seafloor_renderer.hpp"
@@ -64,6 +67,25 @@ TEST(SeafloorRenderer, SameKeySameImageAndNoiseChangesWithKey) {
   EXPECT_LT(cv::norm(a, d, cv::NORM_L1) / a.total(), 4.0);  // only sensor noise differs
 }
 
+TEST(SeafloorRenderer, SameBytesWithOneOrTwoThreads) {
+  // Rows and tile bands are shaded in parallel: the split must not change a single pixel.
+  const SimConfig c = presetConfig("short-snow");
+  const StereoRigModel rig(c.rig);
+  const int before = cv::getNumThreads();
+  cv::Mat img[2][2];
+  for (int threads : {1, 2}) {
+    cv::setNumThreads(threads);
+    SeafloorRenderer r(c, rig);  // fresh tile cache: tile generation is split too
+    const Eigen::Isometry3d T = poseAtAltitude(r, 4.0);
+    r.render(0, T, 2.0, 5, img[threads - 1][0]);
+    r.render(1, T, 2.0, 6, img[threads - 1][1]);
+  }
+  cv::setNumThreads(before);
+  EXPECT_EQ(cv::norm(img[0][0], img[1][0], cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(img[0][1], img[1][1], cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(img[0][0], img[0][1], cv::NORM_L1), 0.0);  // two different cameras
+}
+
 TEST(Seafloor, CachedAndDirectLookupsAgree) {
   const SimConfig c = presetConfig("short-plain");
   Seafloor floor(c.seafloor, c.seed);
@@ -73,6 +95,17 @@ TEST(Seafloor, CachedAndDirectLookupsAgree) {
   EXPECT_GT(floor.cachedTiles(), 0);
   EXPECT_NEAR(direct.h, cached.h, 1e-6);
   EXPECT_NEAR(direct.albedo, cached.albedo, 1e-6);
+  // Whole rows of a tile, across pebbles and rocks, against the direct evaluation.
+  float max_dh = 0, max_da = 0;
+  const Seafloor fresh(c.seafloor, c.seed);  // never prepared: direct evaluation
+  for (int k = 0; k < 2000; ++k) {
+    const double x = 0.0011 + 0.000997 * k, y = -0.9 + 0.0004 * k;
+    const FloorSample d = fresh.sample(x, y), t = floor.sample(x, y);
+    max_dh = std::max(max_dh, std::abs(d.h - t.h));
+    max_da = std::max(max_da, std::abs(d.albedo - t.albedo));
+  }
+  EXPECT_LT(max_dh, 1e-6);
+  EXPECT_LT(max_da, 1e-6);
   Seafloor other(c.seafloor, c.seed + 1);
   EXPECT_NE(other.sample(1.2345, -0.678).albedo, direct.albedo);  // the seed matters
 }

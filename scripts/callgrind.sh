@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# Instruction counts (callgrind Ir) of the hot paths on fixed synthetic input (issue 8), so a
+# speed-up is visible on a loaded machine where wall-clock benchmarks wander. Each stage runs
+# once in bench/hotpaths with instrumentation on only around the stage; one summary line per
+# stage, then the top functions of each (callgrind_annotate).
+#   scripts/callgrind.sh                     all stages: surf_detect surf_describe ransac icp frame
+#   scripts/callgrind.sh ransac icp          only these
+# Environment: SEAVIO_BUILD_DIR (default build), SEAVIO_JOBS (default 2), OUT (default
+# callgrind-results/), TOP (functions listed per stage, default 8).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build=${SEAVIO_BUILD_DIR:-build}
+jobs=${SEAVIO_JOBS:-2}
+out=${OUT:-callgrind-results}
+top=${TOP:-8}
+command -v valgrind >/dev/null || { echo "callgrind.sh: valgrind not installed (apt-get install valgrind)" >&2; exit 1; }
+stages=("$@")
+[ ${#stages[@]} -gt 0 ] || stages=(surf_detect surf_describe ransac icp frame)
+mkdir -p "$out"
+
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake --build "$build" -j"$jobs" --target hotpaths >/dev/null
+
+declare -A ir
+for s in "${stages[@]}"; do
+  f="$out/$s.callgrind"
+  valgrind --tool=callgrind --instr-atstart=no --callgrind-out-file="$f" "$build/bench/hotpaths" "$s" \
+    2>"$out/$s.log" | sed 's/^/  /'
+  ir[$s]=$(awk '/^totals:/ {print $2}' "$f")
+  # Function lines only (after the PROGRAM TOTALS line), names cut to 150 characters.
+  callgrind_annotate --threshold=100 "$f" 2>/dev/null |
+    awk -v top="$top" '/PROGRAM TOTALS/ {go = 1; next} go && /^ *[0-9,]+ / && n < top {print substr($0, 1, 150); n++}' \
+      >"$out/$s.top"
+done
+
+echo
+printf '%-14s %16s\n' stage 'Ir'
+for s in "${stages[@]}"; do printf '%-14s %16s\n' "$s" "$(printf "%'d" "${ir[$s]}" 2>/dev/null || echo "${ir[$s]}")"; done
+for s in "${stages[@]}"; do
+  echo
+  echo "== $s: top $top functions (self Ir)"
+  sed 's/^/  /' "$out/$s.top"
+done

@@ -1,0 +1,138 @@
+// Fixed-input driver for scripts/callgrind.sh (issue 8): runs ONE hot path once, with
+// callgrind's instrumentation switched on only around it, so the instruction count (Ir) is
+// that of the stage alone and comparable across commits on a noisy machine.
+//   hotpaths surf_detect | surf_describe | ransac | icp | frame
+// surf_detect: SURF detection + orientation on the 640 x 480 benchmark texture at a fixed
+// threshold (~500 features); surf_describe: the same plus descriptors; ransac: tensor RANSAC
+// + refinement, 100 matches, 30% outliers; icp: 600 points against a 2,600-point model,
+// kd-tree build included; frame: frame 7 of a short-plain clip, global mode, features
+// sequential (Odometry::process). Outside valgrind it just runs the stage and prints a line.
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <string>
+#include <vector>
+
+#if __has_include(<valgrind/callgrind.h>)
+#include <valgrind/callgrind.h>
+#define SEAVIO_CG_START() CALLGRIND_START_INSTRUMENTATION
+#define SEAVIO_CG_STOP() CALLGRIND_STOP_INSTRUMENTATION
+#else
+#define SEAVIO_CG_START() ((void)0)
+#define SEAVIO_CG_STOP() ((void)0)
+#endif
+
+#include <opencv2/core.hpp>
+
+#include "core/features/surf.hpp"
+#include "core/geometry/quadrifocal_ransac.hpp"
+#include "core/icp/icp.hpp"
+#include "core/icp/point_cloud_index.hpp"
+#include "core/odometry/odometry.hpp"
+#include "tests/bench/synthetic_clip.hpp"
+#include "tests/core/features/synthetic_texture.hpp"
+#include "tests/core/geometry/synthetic_scene.hpp"
+
+namespace {
+
+using namespace seavio;
+
+// SURF's settled threshold for ~500 features on this texture (features_bench); fixed so the
+// count of work stays the same when the detector changes.
+constexpr double kSurfThreshold = 850.0;
+
+int surf(bool describe) {
+  const cv::Mat img = features::testing::makeTexture(640, 480, 2024);
+  const features::Surf s(features::SurfParams{});
+  std::vector<cv::KeyPoint> kps;
+  cv::Mat desc;
+  SEAVIO_CG_START();
+  if (describe) {
+    s.detectAndCompute(img, kSurfThreshold, kps, desc);
+  } else {
+    s.detect(img, kSurfThreshold, kps);
+  }
+  SEAVIO_CG_STOP();
+  std::printf("surf_%s: %zu keypoints\n", describe ? "describe" : "detect", kps.size());
+  return 0;
+}
+
+int ransac() {
+  const auto rig = geometry::testing::makeRig();
+  const Eigen::Isometry3d T = geometry::testing::makeMotion();
+  std::mt19937 rng(1);
+  const auto scene = geometry::testing::makeScene(rig, T, 100, 0.3, 0.3, rng);
+  Eigen::Isometry3d prior = T;
+  prior.translation() += Eigen::Vector3d(0.02, 0.01, 0);
+  geometry::QuadrifocalRansac r(rig, {});
+  r.reserve(scene.matches.size());
+  SEAVIO_CG_START();
+  const auto res = r.estimate(scene.matches, prior, rng);
+  SEAVIO_CG_STOP();
+  std::printf("ransac: %s, %zu inliers, %d hypotheses, translation error %.4f m\n", geometry::toString(res.status),
+              res.inliers.size(), res.iterations, (res.T_prev_curr.translation() - T.translation()).norm());
+  return 0;
+}
+
+int icpStage() {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> ux(-2.3f, 2.3f), uy(-1.7f, 1.7f);
+  std::normal_distribution<float> noise(0.0f, 0.005f);
+  std::vector<Eigen::Vector3f> model;
+  for (int k = 0; k < 2600; ++k) {
+    const float x = ux(rng), y = uy(rng);
+    model.emplace_back(x, y, 4.0f + 0.1f * std::sin(3.0f * x) * std::cos(2.0f * y) + 0.05f * std::sin(7.0f * y));
+  }
+  const Eigen::Isometry3d T_true =
+      Eigen::Translation3d(0.05, -0.03, 0.02) * Eigen::AngleAxisd(0.01, Eigen::Vector3d(0.2, 0.3, 1.0).normalized());
+  std::vector<Eigen::Vector3f> data;
+  std::vector<std::pair<int, int>> seeds;
+  for (int k = 0; k < 600; ++k) {
+    const int m = (k * 7919) % 2600;
+    data.push_back(T_true.inverse().cast<float>() *
+                   (model[static_cast<std::size_t>(m)] + Eigen::Vector3f(noise(rng), noise(rng), noise(rng))));
+    if (k % 4 == 0) seeds.emplace_back(k, m);
+  }
+  SEAVIO_CG_START();
+  const icp::PointCloudIndex index(model);
+  const icp::IcpResult r = icp::alignIcp(data, model, index, seeds, Eigen::Isometry3d::Identity(), {});
+  SEAVIO_CG_STOP();
+  std::printf("icp: %d iterations, %d inliers, translation error %.4f m\n", r.iterations, r.inliers,
+              (r.T_model_data.translation() - T_true.translation()).norm());
+  return 0;
+}
+
+int frame() {
+  constexpr int kFrames = 8;
+  const bench::SurveyClip c = bench::renderClip(kFrames);
+  std::string error;
+  auto rect = camera::StereoRectifier::create(c.calibration, &error);
+  if (!rect) {
+    std::fprintf(stderr, "hotpaths: calibration unusable: %s\n", error.c_str());
+    return 1;
+  }
+  odometry::OdometryParams p;
+  p.mode = odometry::Mode::kGlobal;
+  odometry::Odometry odo(std::move(*rect), c.imu_noise, p);
+  for (int k = 0; k + 1 < kFrames; ++k) odo.process(c.frames[k], c.imu[k]);
+  SEAVIO_CG_START();
+  const OdometryResult r = odo.process(c.frames[kFrames - 1], c.imu[kFrames - 1]);
+  SEAVIO_CG_STOP();
+  std::printf("frame: %d + %d features, %d stereo, %d RANSAC inliers\n", r.quality.features_left,
+              r.quality.features_right, r.quality.stereo_matches, r.quality.ransac_inliers);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  cv::setNumThreads(1);
+  const std::string stage = argc == 2 ? argv[1] : "";
+  if (stage == "surf_detect") return surf(false);
+  if (stage == "surf_describe") return surf(true);
+  if (stage == "ransac") return ransac();
+  if (stage == "icp") return icpStage();
+  if (stage == "frame") return frame();
+  std::fprintf(stderr, "usage: hotpaths surf_detect|surf_describe|ransac|icp|frame\n");
+  return 2;
+}

@@ -1,0 +1,104 @@
+#pragma once
+// Inter-frame matching on rendered frames with ground truth (issue 4, "the IMU prediction
+// measurably helps"): shared by the pruning test and tests/bench/pruning_bench.cpp.
+#include <cstdlib>
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "core/eval/trajectory_metrics.hpp"
+#include "core/features/feature_count_controller.hpp"
+#include "core/imu/imu_integrator.hpp"
+#include "core/matching/match_correctness.hpp"
+#include "core/odometry/odometry.hpp"
+#include "drivers/dataset/dataset.hpp"
+#include "tools/simulate/sequence_writer.hpp"
+#include "tools/simulate/sim_config.hpp"
+
+namespace seavio::testing_support {
+
+/// One pair of frames: features of both, the true motion, and the IMU's prediction of it.
+struct MatchPair {
+  const odometry::FrameFeatures* prev = nullptr;
+  const odometry::FrameFeatures* curr = nullptr;
+  Eigen::Isometry3d T_prev_curr_true = Eigen::Isometry3d::Identity();  ///< R0(prev) <- R0(curr)
+  Eigen::Isometry3d T_prev_curr_imu = Eigen::Isometry3d::Identity();   ///< IMU dead reckoning
+  Eigen::Matrix<double, 6, 6> imu_covariance = Eigen::Matrix<double, 6, 6>::Zero();  ///< rot [rad], trans [m]
+};
+
+/// A short rendered survey with every frame's features and the frame pairs `gap` apart.
+struct MatchingScene {
+  drivers::Dataset dataset;
+  camera::RectifiedRig rig;
+  std::vector<odometry::FrameFeatures> frames;
+
+  /// Pairs (k, k + gap) for frames from `first` on.
+  std::vector<MatchPair> pairs(int gap, int first) const {
+    std::vector<MatchPair> out;
+    for (int k = first; k + gap < static_cast<int>(frames.size()); ++k) {
+      MatchPair p;
+      p.prev = &frames[static_cast<std::size_t>(k)];
+      p.curr = &frames[static_cast<std::size_t>(k + gap)];
+      const auto gt_prev = groundTruthAt(p.prev->t_ns), gt_curr = groundTruthAt(p.curr->t_ns);
+      p.T_prev_curr_true = (gt_prev.T_W_B * rig.T_B_R0).inverse() * (gt_curr.T_W_B * rig.T_B_R0);
+      // The IMU prediction as the odometry forms it after a visual fix: start from the (here
+      // true) pose and velocity with the odometry's post-fix uncertainty, biases unknown.
+      NavState start;
+      start.t_ns = p.prev->t_ns;
+      start.T_W_B = gt_prev.T_W_B;
+      start.v_W = gt_prev.v_W;
+      imu::Matrix9d cov = imu::Matrix9d::Zero();
+      cov.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() * 0.005 * 0.005;
+      cov.block<3, 3>(3, 3) = Eigen::Matrix3d::Identity() * 0.05 * 0.05;
+      const imu::ImuPropagation pred = imu::propagate(start, cov, dataset.imu, p.curr->t_ns, dataset.imu_noise);
+      p.T_prev_curr_imu = (start.T_W_B * rig.T_B_R0).inverse() * (pred.state.T_W_B * rig.T_B_R0);
+      p.imu_covariance.topLeftCorner<3, 3>() = pred.covariance.topLeftCorner<3, 3>();
+      p.imu_covariance.bottomRightCorner<3, 3>() = pred.covariance.block<3, 3>(6, 6);
+      out.push_back(p);
+    }
+    return out;
+  }
+
+  /// Ground-truth state at `t_ns` (nearest sample; the simulator writes them at IMU rate).
+  drivers::GroundTruthState groundTruthAt(int64_t t_ns) const {
+    const auto& gt = dataset.ground_truth;
+    std::size_t best = 0;
+    for (std::size_t i = 1; i < gt.size(); ++i)
+      if (std::llabs(gt[i].t_ns - t_ns) < std::llabs(gt[best].t_ns - t_ns)) best = i;
+    return gt[best];
+  }
+};
+
+/// Renders `config` into `dir` and extracts every frame's features with the default
+/// odometry front end, the detector threshold held by the count controller as in a run.
+inline MatchingScene renderScene(const simulate::SimConfig& config, const std::string& dir) {
+  simulate::writeSequence(config, dir, true);
+  MatchingScene s;
+  s.dataset = drivers::loadEuroc(dir);
+  std::string error;
+  auto rectifier = camera::StereoRectifier::create(s.dataset.calibration, &error);
+  if (!rectifier) throw std::runtime_error(dir + ": calibration unusable: " + error);
+  const odometry::OdometryParams params;
+  const odometry::Frontend frontend(std::move(*rectifier), params.features, params.stereo, params.illumination,
+                                    params.snow);
+  s.rig = frontend.rig();
+  features::FeatureCountController controller(params.features.controller);
+  for (std::size_t i = 0; i < s.dataset.frames.size(); ++i) {
+    s.frames.push_back(frontend.process(drivers::loadFrame(s.dataset, i), controller.threshold(), {}));
+    controller.update(static_cast<int>(s.frames.back().left.keypoints.size()));
+  }
+  return s;
+}
+
+/// A short survey cruising at 1 m/s, 10 Hz, 4 m above a plain floor.
+inline simulate::SimConfig cruiseConfig(uint32_t seed, int frames) {
+  simulate::SimConfig c = simulate::presetConfig("short-plain");
+  c.seed = seed;
+  c.frames = frames;
+  c.trajectory.still_s = 0.5;
+  c.trajectory.accel_s = 1.0;
+  return c;
+}
+
+}  // namespace seavio::testing_support
