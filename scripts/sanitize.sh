@@ -23,7 +23,7 @@ case "$mode" in
     # Only what the threaded tests need, so the TSan build stays small.
     targets=(--target test_daemon test_drivers_lcm seaviod)
     filter=(-R "Daemon|Ring|Worker|Seaviod|Lcm")
-    export TSAN_OPTIONS=${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1}
+    export TSAN_OPTIONS=${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1:suppressions=$PWD/scripts/tsan.supp}
     ;;
   *)
     echo "usage: $0 [address|thread]" >&2

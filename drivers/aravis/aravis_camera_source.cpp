@@ -253,18 +253,22 @@ ReadStatus AravisCameraSource::read(StereoFrame& out, std::chrono::milliseconds 
     for (int i = 0; i < im.n; ++i) {
       Camera& c = im.cams[i];
       if (c.job) {
-        std::lock_guard<std::mutex> lock(c.job->m);
-        if (!c.job->done) continue;
-        if (c.job->ok) {
-          c.adopt(c.job->result);
-          ++faults_.reconnects;
-          spdlog::warn("aravis: camera '{}' reconnected ({} so far)", c.id, faults_.reconnects);
-        } else {
-          error_ = c.job->error;
-          spdlog::warn("aravis: reconnect failed: {}", error_);
-          c.last_frame = now;  // retry after another reconnect_after_ms
+        bool finished = false;
+        {
+          std::lock_guard<std::mutex> lock(c.job->m);
+          finished = c.job->done;
+          if (finished && c.job->ok) {
+            c.adopt(c.job->result);
+            ++faults_.reconnects;
+            spdlog::warn("aravis: camera '{}' reconnected ({} so far)", c.id, faults_.reconnects);
+          } else if (finished) {
+            error_ = c.job->error;
+            spdlog::warn("aravis: reconnect failed: {}", error_);
+            c.last_frame = now;  // retry after another reconnect_after_ms
+          }
         }
-        c.job.reset();
+        // Released only after the lock: the job owns the mutex the guard would unlock.
+        if (finished) c.job.reset();
         continue;
       }
       const bool silent = now - c.last_frame > std::chrono::milliseconds(cfg_.reconnect_after_ms);
