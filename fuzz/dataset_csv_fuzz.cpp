@@ -16,19 +16,12 @@ const char* const kTargets[] = {
     "kitti/calib.txt",          "kitti/times.txt",
     "kitti/poses.txt",          "trajectory.tum",
 };
-constexpr size_t kNumTargets = sizeof(kTargets) / sizeof(kTargets[0]);
 
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace seavio;
-  static const bool ready = (fuzz::makeScratchDatasets(), true);
-  (void)ready;
-  if (size < 1) return 0;
-  const std::string rel = kTargets[data[0] % kNumTargets];
-  fuzz::writeFile(fuzz::scratchDir() / rel, data + 1, size - 1);
-  const std::string dir = fuzz::scratchDir().string();
-  try {
+  return fuzz::replaceOneFileAndRead(kTargets, data, size, [](const std::string& rel, const std::string& dir) {
     if (rel.rfind("euroc/", 0) == 0) {
       const drivers::Dataset ds = drivers::loadEuroc(dir + "/euroc");
       for (size_t k = 1; k < ds.imu.size(); ++k)
@@ -44,9 +37,5 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       for (size_t k = 1; k < poses.size(); ++k)
         if (poses[k].t_ns <= poses[k - 1].t_ns) __builtin_trap();
     }
-  } catch (const drivers::InputError& e) {
-    if (std::string(e.what()).find(dir) == std::string::npos) __builtin_trap();
-  }
-  fuzz::restore(rel);
-  return 0;
+  });
 }

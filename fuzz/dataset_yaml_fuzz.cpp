@@ -11,7 +11,6 @@ namespace {
 
 const char* const kTargets[] = {"euroc/mav0/cam0/sensor.yaml", "euroc/mav0/cam1/sensor.yaml",
                                 "euroc/mav0/imu0/sensor.yaml", "camchain.yaml"};
-constexpr size_t kNumTargets = sizeof(kTargets) / sizeof(kTargets[0]);
 
 bool finite(const seavio::camera::CameraIntrinsics& c) {
   return std::isfinite(c.fx) && std::isfinite(c.fy) && std::isfinite(c.cx) && std::isfinite(c.cy) && c.width > 0 &&
@@ -22,20 +21,10 @@ bool finite(const seavio::camera::CameraIntrinsics& c) {
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace seavio;
-  static const bool ready = (fuzz::makeScratchDatasets(), true);
-  (void)ready;
-  if (size < 1) return 0;
-  const std::string rel = kTargets[data[0] % kNumTargets];
-  fuzz::writeFile(fuzz::scratchDir() / rel, data + 1, size - 1);
-  const std::string dir = fuzz::scratchDir().string();
-  try {
+  return fuzz::replaceOneFileAndRead(kTargets, data, size, [](const std::string& rel, const std::string& dir) {
     std::optional<std::string> chain;
     if (rel == "camchain.yaml") chain = dir + "/" + rel;
     const drivers::Dataset ds = drivers::loadEuroc(dir + "/euroc", chain);
     if (!finite(ds.calibration.cam0) || !finite(ds.calibration.cam1)) __builtin_trap();
-  } catch (const drivers::InputError& e) {
-    if (std::string(e.what()).find(dir) == std::string::npos) __builtin_trap();
-  }
-  fuzz::restore(rel);
-  return 0;
+  });
 }

@@ -8,6 +8,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "drivers/dataset/dataset.hpp"
 #include "fuzz/fuzz_util.hpp"
 
 namespace seavio::fuzz {
@@ -71,5 +72,25 @@ inline void makeScratchDatasets() {
 
 /// Puts the valid version of `rel` back.
 inline void restore(const std::string& rel) { writeFile(scratchDir() / rel, validDatasetFiles().at(rel)); }
+
+/// One fuzz input for a dataset reader: byte 0 picks which of `targets` the rest replaces,
+/// `read(rel, dir)` runs the reader on the scratch folder, then the valid file is put back.
+/// Only drivers::InputError may escape `read`, and its message must name the scratch folder.
+template <std::size_t N, class Read>
+int replaceOneFileAndRead(const char* const (&targets)[N], const uint8_t* data, std::size_t size, Read&& read) {
+  static const bool ready = (makeScratchDatasets(), true);
+  (void)ready;
+  if (size < 1) return 0;
+  const std::string rel = targets[data[0] % N];
+  writeFile(scratchDir() / rel, data + 1, size - 1);
+  const std::string dir = scratchDir().string();
+  try {
+    read(rel, dir);
+  } catch (const drivers::InputError& e) {
+    if (std::string(e.what()).find(dir) == std::string::npos) __builtin_trap();
+  }
+  restore(rel);
+  return 0;
+}
 
 }  // namespace seavio::fuzz
