@@ -9,68 +9,25 @@
 #include <map>
 #include <stdexcept>
 
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+
+#include "tools/plot.hpp"
 
 namespace seavio::tools {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-std::string fmt(const char* f, double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), f, v);
-  return buf;
-}
+using plot::fmt;
+using plot::kBlack;
+using plot::kBlue;
+using plot::kFont;
+using plot::kGreen;
+using plot::kRed;
 
 std::string cell(double v) { return std::isfinite(v) ? fmt("%9.2f", v) : std::string("        -"); }
 
 std::string num(double v) { return std::isfinite(v) ? fmt("%.6g", v) : std::string("null"); }
-
-/// Tick spacing of 1, 2 or 5 x 10^k giving about `n` ticks over `range`.
-double niceStep(double range, int n) {
-  if (!(range > 0)) return 1.0;
-  const double raw = range / n;
-  const double p = std::pow(10.0, std::floor(std::log10(raw)));
-  for (double m : {1.0, 2.0, 5.0})
-    if (raw <= m * p) return m * p;
-  return 10.0 * p;
-}
-
-/// Data [x0,x1] x [y0,y1] mapped into the pixel rectangle `area`, y up.
-struct Axes {
-  cv::Rect area;
-  double x0, x1, y0, y1;
-  cv::Point px(double x, double y) const {
-    const double fx = (x - x0) / (x1 - x0), fy = (y - y0) / (y1 - y0);
-    return {area.x + int(std::lround(std::clamp(fx, 0.0, 1.0) * area.width)),
-            area.y + area.height - int(std::lround(std::clamp(fy, 0.0, 1.0) * area.height))};
-  }
-};
-
-const cv::Scalar kBlack(0, 0, 0), kGrey(215, 215, 215), kRed(30, 30, 220), kBlue(200, 110, 20),
-    kGreen(60, 150, 60);
-constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
-
-void drawAxes(cv::Mat& img, const Axes& a, const std::string& xlabel, const std::string& ylabel,
-              const std::string& title) {
-  const double sx = niceStep(a.x1 - a.x0, 8), sy = niceStep(a.y1 - a.y0, 6);
-  for (double x = std::ceil(a.x0 / sx) * sx; x <= a.x1 + 1e-9; x += sx) {
-    const cv::Point p = a.px(x, a.y0);
-    cv::line(img, {p.x, a.area.y}, {p.x, a.area.y + a.area.height}, kGrey, 1);
-    cv::putText(img, fmt(sx >= 1 ? "%.0f" : "%.1f", x), {p.x - 10, p.y + 18}, kFont, 0.45, kBlack, 1, cv::LINE_AA);
-  }
-  for (double y = std::ceil(a.y0 / sy) * sy; y <= a.y1 + 1e-9; y += sy) {
-    const cv::Point p = a.px(a.x0, y);
-    cv::line(img, {a.area.x, p.y}, {a.area.x + a.area.width, p.y}, kGrey, 1);
-    cv::putText(img, fmt(sy >= 1 ? "%.0f" : "%.1f", y), {p.x - 45, p.y + 5}, kFont, 0.45, kBlack, 1, cv::LINE_AA);
-  }
-  cv::rectangle(img, a.area, kBlack, 1);
-  cv::putText(img, xlabel, {a.area.x + a.area.width / 2 - 60, a.area.y + a.area.height + 40}, kFont, 0.55, kBlack, 1,
-              cv::LINE_AA);
-  cv::putText(img, ylabel, {a.area.x - 70, a.area.y - 10}, kFont, 0.5, kBlack, 1, cv::LINE_AA);
-  cv::putText(img, title, {a.area.x + a.area.width / 2 - 150, a.area.y - 12}, kFont, 0.6, kBlack, 1, cv::LINE_AA);
-}
 
 void writeStatsJson(std::ostream& out, const LatencyStats& s) {
   out << "{\"name\": \"" << s.name << "\", \"count\": " << s.count << ", \"per_frame\": " << (s.per_frame ? "true" : "false")
@@ -303,8 +260,8 @@ void writeProfilePlot(const std::string& path_png, const ProfileReport& r) {
   for (const FrameTiming& f : r.frames) ymax = std::max(ymax, std::max(f.end_to_end_ms, f.processing_ms) * 1.05);
   const double n = std::max<double>(1.0, static_cast<double>(r.frames.size()) - 1.0);
 
-  const Axes tl{cv::Rect(110, 50, 1040, 290), 0.0, n, 0.0, ymax};
-  drawAxes(img, tl, "frame index", "[ms]", "latency per frame (" + r.end_to_end_basis + ")");
+  const plot::Axes tl{cv::Rect(110, 50, 1040, 290), 0.0, n, 0.0, ymax};
+  plot::drawAxes(img, tl, "frame index", "[ms]", "latency per frame (" + r.end_to_end_basis + ")", 8);
   cv::line(img, tl.px(0, budget), tl.px(n, budget), kRed, 1, cv::LINE_AA);
   cv::putText(img, fmt("budget %.0f ms", budget), tl.px(0, budget) + cv::Point(6, -6), kFont, 0.45, kRed, 1,
               cv::LINE_AA);
@@ -340,7 +297,7 @@ void writeProfilePlot(const std::string& path_png, const ProfileReport& r) {
               cv::LINE_AA);
 
   // Histogram of the end-to-end figure, about 40 bins over [0, ymax].
-  const double bin = niceStep(ymax, 40);
+  const double bin = plot::niceStep(ymax, 40);
   const int nbins = std::max(1, static_cast<int>(std::ceil(ymax / bin)));
   std::vector<int> counts(static_cast<std::size_t>(nbins), 0);
   for (const FrameTiming& f : r.frames) {
@@ -348,8 +305,8 @@ void writeProfilePlot(const std::string& path_png, const ProfileReport& r) {
     ++counts[static_cast<std::size_t>(b)];
   }
   const int cmax = std::max(1, *std::max_element(counts.begin(), counts.end()));
-  const Axes hist{cv::Rect(110, 440, 1040, 270), 0.0, nbins * bin, 0.0, cmax * 1.1};
-  drawAxes(img, hist, "end-to-end latency [ms]", "frames", "histogram");
+  const plot::Axes hist{cv::Rect(110, 440, 1040, 270), 0.0, nbins * bin, 0.0, cmax * 1.1};
+  plot::drawAxes(img, hist, "end-to-end latency [ms]", "frames", "histogram", 8);
   for (int b = 0; b < nbins; ++b) {
     if (counts[static_cast<std::size_t>(b)] == 0) continue;
     cv::rectangle(img, hist.px(b * bin, counts[static_cast<std::size_t>(b)]), hist.px((b + 1) * bin, 0), kBlue,
@@ -362,13 +319,7 @@ void writeProfilePlot(const std::string& path_png, const ProfileReport& r) {
                               std::to_string(r.over_budget) + " of " + std::to_string(r.frames.size()) +
                               "; seq gaps " + std::to_string(r.seq_gaps);
   cv::putText(img, summary, {110, 785}, kFont, 0.55, r.over_budget ? kRed : kBlack, 1, cv::LINE_AA);
-  bool ok = false;
-  try {
-    ok = cv::imwrite(path_png, img);
-  } catch (const cv::Exception&) {
-    ok = false;
-  }
-  if (!ok) throw std::runtime_error(path_png + ": cannot write PNG");
+  plot::writePng(path_png, img);
 }
 
 }  // namespace seavio::tools
