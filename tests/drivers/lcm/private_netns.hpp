@@ -12,7 +12,10 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <gtest/gtest.h>
+
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <string>
@@ -69,5 +72,15 @@ inline std::string enterPrivateMulticastNetns() {
   if (r != 0 && err != EEXIST) return std::string("SIOCADDRT 224.0.0.0/4 dev lo: ") + std::strerror(err);
   return "";
 }
+
+/// Enters the namespace before any test of the binary runs (register it once per binary
+/// with ::testing::AddGlobalTestEnvironment); ctest runs each test in its own process.
+class PrivateNetnsEnvironment : public ::testing::Environment {
+ public:
+  void SetUp() override {
+    const std::string why = enterPrivateMulticastNetns();
+    if (!why.empty()) std::fprintf(stderr, "private network namespace unavailable: %s\n", why.c_str());
+  }
+};
 
 }  // namespace seavio::test
