@@ -1,5 +1,6 @@
 #include "daemon/daemon.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -18,6 +19,10 @@ using namespace std::chrono_literals;
 namespace {
 constexpr auto kPoll = 50ms;  // longest single wait anywhere in the pipeline
 
+constexpr int32_t kLocalOnly = seavio_lcm::pose_t::FLAG_LOCAL_ONLY;
+constexpr int32_t kGlobalRefined = seavio_lcm::pose_t::FLAG_GLOBAL_REFINED;
+constexpr int32_t kMapFlags = kLocalOnly | kGlobalRefined;
+
 double msBetween(int64_t a_ns, int64_t b_ns) { return static_cast<double>(b_ns - a_ns) * 1e-6; }
 
 void joinIf(std::thread& t) {
@@ -31,16 +36,40 @@ int64_t monotonicNowNs() {
       .count();
 }
 
+GlobalStage::GlobalStage(const RingCapacities& rings, uint32_t seed)
+    : requests_(std::max<std::size_t>(rings.global_requests, 1)),
+      corrections_(std::max<std::size_t>(rings.global_requests, 1) + 2),
+      rng_(seed) {}
+
+void GlobalStage::submit(odometry::GlobalRequest&& request) {
+  if (health_) health_->global_requests++;
+  Job job{std::move(request), recv_ns_, monotonicNowNs()};
+  // Never waits: an ICP thread this far behind is skipped; the frame keeps its local pose.
+  if (!requests_.pushOrCountOverflow(std::move(job)) && health_) health_->global_skipped++;
+}
+
+bool GlobalStage::poll(odometry::GlobalCorrection& out) {
+  if (!corrections_.tryPop(out)) return false;
+  if (health_) health_->global_corrections_applied++;
+  return true;
+}
+
+odometry::GlobalCorrection GlobalStage::refine(const odometry::GlobalRequest& request) {
+  return refiner_->refine(request, rng_);
+}
+
 Daemon::Daemon(DaemonConfig config, std::unique_ptr<drivers::CameraSource> camera,
                std::unique_ptr<drivers::ImuSource> imu, std::unique_ptr<FrameProcessor> processor,
-               std::unique_ptr<Notifier> notifier)
+               std::unique_ptr<Notifier> notifier, std::shared_ptr<GlobalStage> global)
     : cfg_(std::move(config)),
       camera_(std::move(camera)),
       imu_src_(std::move(imu)),
       processor_(std::move(processor)),
-      notifier_(notifier ? std::move(notifier) : std::make_unique<NullNotifier>()) {
+      notifier_(notifier ? std::move(notifier) : std::make_unique<NullNotifier>()),
+      global_(std::move(global)) {
   imu_pending_.reserve(cfg_.rings.imu_samples);
   imu_batch_.reserve(cfg_.rings.imu_samples);
+  if (global_) global_->health_ = &health_;
 }
 
 Daemon::~Daemon() { stop(); }
@@ -49,6 +78,10 @@ bool Daemon::start() {
   if (running_) return true;
   if (!camera_ || !processor_) {
     error_ = "daemon needs a camera source and a frame processor";
+    return false;
+  }
+  if (global_ && !global_->hasRefiner()) {
+    error_ = "global stage without a refiner (GlobalStage::setRefiner)";
     return false;
   }
   bus_ = std::make_unique<drivers::LcmBus>(cfg_.lcm.url);
@@ -73,12 +106,16 @@ bool Daemon::start() {
   imu_ended_ = imu_src_ == nullptr;
   stop_acq_ = false;
   stop_pipeline_ = false;
+  stop_global_ = false;
+  publisher_done_ = false;
+  global_done_ = false;
   running_ = true;
   camera_thread_ = std::thread([this] { cameraLoop(); });
   if (imu_src_) imu_thread_ = std::thread([this] { imuLoop(); });
   estimator_thread_ = std::thread([this] { estimatorLoop(); });
   publisher_thread_ = std::thread([this] { publisherLoop(); });
   status_thread_ = std::thread([this] { statusLoop(); });
+  if (global_) global_thread_ = std::thread([this] { globalLoop(); });
   return true;
 }
 
@@ -90,6 +127,14 @@ void Daemon::stop() {
   stop_pipeline_ = true;
   joinIf(estimator_thread_);
   health_.frames_dropped_shutdown += frames_->drain();
+  // No request comes after the estimator: the ICP thread finishes the one it holds (one
+  // refinement, milliseconds) and every request still queued is counted, not refined.
+  stop_global_ = true;
+  joinIf(global_thread_);
+  if (global_) {
+    GlobalStage::Job job;
+    while (global_->requests_.tryPop(job)) health_.global_dropped_shutdown++;
+  }
   joinIf(publisher_thread_);
   joinIf(status_thread_);
   pool_->stop();
@@ -105,6 +150,10 @@ DriverFaults Daemon::driverFaults() const {
   if (const auto* r = dynamic_cast<const FaultReporter*>(camera_.get())) f += r->faults();
   if (const auto* r = dynamic_cast<const FaultReporter*>(imu_src_.get())) f += r->faults();
   return f;
+}
+
+uint64_t Daemon::accountedGlobalRequests() const {
+  return health_.global_skipped + health_.global_refined + health_.global_dropped_shutdown + health_.global_failures;
 }
 
 uint64_t Daemon::accountedFrames() const {
@@ -253,6 +302,7 @@ void Daemon::estimate(FrameItem& item) {
         item.frame.left.size() != item.frame.right.size()) {
       throw std::runtime_error("empty or mismatched stereo images");
     }
+    if (global_) global_->recv_ns_ = item.recv_ns;  // for the request the odometry submits
     r = processor_->process(item.frame, imu_batch_);
   } catch (const std::exception&) {
     health_.processing_failures++;
@@ -296,6 +346,10 @@ void Daemon::estimatorLoop() {
 void Daemon::publishPose(PoseItem& p) {
   const int64_t now = monotonicNowNs();
   seavio_lcm::pose_t msg = drivers::toPoseMsg(p.result, now);
+  if (global_) {
+    // The map's answer for this frame comes later from the ICP thread (same seq).
+    msg.flags = (msg.flags & ~kMapFlags) | kLocalOnly;
+  }
   // Per-frame stage split on the pose itself (issue 7), so `seavio profile` gets exact
   // p90/max per stage, which the status histograms cannot give.
   drivers::setPoseTiming(msg, p.result.times, p.recv_ns, p.proc_end_ns, now);
@@ -326,7 +380,81 @@ void Daemon::publisherLoop() {
     }
     if (est_done) break;
   }
-  if (camera_ended_) finished_ = true;
+  publisher_done_ = true;
+  maybeFinish();
+}
+
+void Daemon::maybeFinish() {
+  // Called by the publisher and the ICP thread as each ends; with sequentially consistent
+  // flags at least the later of the two sees both done.
+  if (camera_ended_ && publisher_done_ && (!global_ || global_done_)) finished_ = true;
+}
+
+void Daemon::globalLoop() {
+  while (!stop_global_) {
+    const bool est_done = estimator_done_;
+    GlobalStage::Job job;
+    if (!global_->requests_.popWaitFor(job, kPoll)) {
+      if (est_done) break;  // the estimator submits nothing more and the ring is empty
+      continue;
+    }
+    refineJob(job);
+  }
+  global_done_ = true;
+  maybeFinish();
+}
+
+void Daemon::refineJob(GlobalStage::Job& job) {
+  const int64_t t0 = monotonicNowNs();
+  health_.at(Stage::kGlobalQueue).record(msBetween(job.submit_ns, t0));
+  odometry::GlobalCorrection c;
+  try {
+    c = global_->refine(job.request);
+  } catch (const std::exception&) {
+    health_.global_failures++;
+    return;
+  }
+  const int64_t t1 = monotonicNowNs();
+  health_.at(Stage::kGlobal).record(msBetween(t0, t1));
+  health_.global_refined++;
+  if (c.changed()) {
+    health_.global_applied++;
+  } else if (c.icp_ran) {
+    health_.global_rejected++;
+  }
+  // The refined pose of that frame: the correction is a delta in W, so it moves the body
+  // pose as it moved the camera's.
+  OdometryResult refined = job.request.local;
+  refined.T_W_B = c.correction_W * refined.T_W_B;
+  refined.v_W = c.correction_W.linear() * refined.v_W;
+  if (c.revisit_used) {
+    refined.covariance *= c.covariance_scale;
+    refined.covariance.bottomRightCorner<3, 3>() += Eigen::Matrix3d::Identity() * c.added_position_variance_m2;
+  }
+  refined.quality.model_points = c.model_points;
+  refined.quality.icp_iterations = c.icp_iterations;
+  refined.quality.icp_inliers = c.icp_inliers;
+  refined.quality.icp_rms_m = c.icp_rms_m;
+  refined.times.icp_ms = msBetween(t0, t1);
+  if (!global_->corrections_.pushOrCountOverflow(std::move(c))) health_.global_lost++;
+  publishRefined(refined, job.recv_ns, t1);
+}
+
+void Daemon::publishRefined(const OdometryResult& r, int64_t recv_ns, int64_t proc_end_ns) {
+  const int64_t now = monotonicNowNs();
+  seavio_lcm::pose_t msg = drivers::toPoseMsg(r, now);
+  msg.flags = (msg.flags & ~kMapFlags) | kGlobalRefined;
+  drivers::setPoseTiming(msg, r.times, recv_ns, proc_end_ns, now);
+  if (!bus_->publish(cfg_.lcm.pose_channel, msg)) {
+    health_.publish_failures++;
+    return;
+  }
+  health_.refined_published++;
+  health_.at(Stage::kRefinedEndToEnd).record(msBetween(recv_ns, now));
+  const int64_t age = now - r.t_ns;
+  if (age >= 0 && age < 10'000'000'000LL) {
+    health_.at(Stage::kRefinedCaptureToPublish).record(static_cast<double>(age) * 1e-6);
+  }
 }
 
 seavio_lcm::status_t Daemon::statusMessage() const {
@@ -373,6 +501,13 @@ seavio_lcm::status_t Daemon::statusMessage() const {
   m.imu_reconnects = static_cast<int64_t>(f.imu_reconnects);
   m.imu_bus_errors = static_cast<int64_t>(f.imu_bus_errors);
   m.timestamp_jumps = static_cast<int64_t>(f.timestamp_jumps);
+  m.global_requests = static_cast<int64_t>(health_.global_requests.load());
+  m.global_skipped = static_cast<int64_t>(health_.global_skipped.load());
+  m.global_refined = static_cast<int64_t>(health_.global_refined.load());
+  m.global_applied = static_cast<int64_t>(health_.global_applied.load());
+  m.global_rejected = static_cast<int64_t>(health_.global_rejected.load());
+  m.global_dropped_shutdown = static_cast<int64_t>(health_.global_dropped_shutdown.load());
+  m.global_failures = static_cast<int64_t>(health_.global_failures.load());
   return m;
 }
 
@@ -409,8 +544,16 @@ std::string Daemon::summary() const {
     << ", lost " << m.camera_lost_frames << ", corrupt " << m.camera_corrupt_frames << "; IMU checksum "
     << m.imu_checksum_errors << ", garbage bytes " << m.imu_garbage_bytes << ", partial " << m.imu_partial_packets
     << ", reconnects " << m.imu_reconnects << ", bus errors " << m.imu_bus_errors << "; timestamp jumps "
-    << m.timestamp_jumps << "\n"
-    << "  latency [ms]          count      p50      p99      max\n";
+    << m.timestamp_jumps << "\n";
+  if (global_) {
+    o << "  global step (ICP thread): requests " << m.global_requests << ", skipped (ring full) "
+      << m.global_skipped << ", refined " << m.global_refined << " (moved " << m.global_applied
+      << ", ICP refused " << m.global_rejected << "), dropped at shutdown " << m.global_dropped_shutdown
+      << ", failures " << m.global_failures << ", corrections lost " << health_.global_lost
+      << "; corrections applied by the estimator " << health_.global_corrections_applied
+      << ", refined poses published " << health_.refined_published << "\n";
+  }
+  o << "  latency [ms]          count      p50      p99      max\n";
   for (int i = 0; i < static_cast<int>(Stage::kCount); ++i) {
     const LatencyHistogram& h = health_.latency[i];
     if (h.count() == 0) continue;

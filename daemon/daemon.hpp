@@ -4,6 +4,9 @@
 ///   camera thread --FrameRing--> estimator thread --SpscRing--> publisher thread --> LCM
 ///   IMU thread ----SpscRing----^      (worker pool: left/right preparation)
 ///   status thread: status_t at 1 Hz, sd_notify STATUS= / WATCHDOG=1
+///   ICP thread (odometry mode global with a GlobalStage, issue 8):
+///     estimator --request ring--> ICP thread --correction ring--> estimator (next frame)
+///                                     `--> LCM: the frame's refined pose (FLAG_GLOBAL_REFINED)
 ///
 /// Lifecycle: construct, start(), then poll finished() or call stop() (any thread but the
 /// pipeline's). Every wait inside has a timeout of at most 50 ms, so stop() returns within
@@ -13,10 +16,12 @@
 #include <atomic>
 #include <memory>
 #include <optional>
+#include <random>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "core/odometry/odometry.hpp"
 #include "daemon/daemon_config.hpp"
 #include "daemon/frame_processor.hpp"
 #include "daemon/health.hpp"
@@ -32,12 +37,58 @@ namespace seavio::daemon {
 /// Monotonic clock of the daemon [ns] (CLOCK_MONOTONIC via steady_clock).
 int64_t monotonicNowNs();
 
+class Daemon;
+
+/// The global map step on its own persistent thread (issues 6 and 8): the odometry's
+/// GlobalLink (give it as OdometryParams::global_link), then handed to the Daemon, which runs
+/// the ICP thread. The estimator submits each frame's request into a fixed-capacity SPSC ring
+/// (full: skipped and counted, never waits, see RingCapacities::global_requests) and drains
+/// the corrections ring before each frame; the ICP thread refines, returns the correction
+/// and publishes the frame's refined pose.
+class GlobalStage : public odometry::GlobalLink {
+ public:
+  /// @param seed random stream of the re-observation RANSAC on the ICP thread
+  explicit GlobalStage(const RingCapacities& rings, uint32_t seed = 1);
+  ~GlobalStage() override = default;
+  /// The refiner the ICP thread owns (Odometry::makeGlobalRefiner: the odometry's rig and
+  /// parameters). Before Daemon::start(); start() fails without one.
+  void setRefiner(odometry::GlobalRefiner refiner) { refiner_.emplace(std::move(refiner)); }
+  bool hasRefiner() const { return refiner_.has_value(); }
+
+  /// Estimator thread (inside Odometry::track): queue the request, or skip and count it.
+  void submit(odometry::GlobalRequest&& request) override;
+  /// Estimator thread: the next correction back from the ICP thread, if any.
+  bool poll(odometry::GlobalCorrection& out) override;
+
+  /// ICP thread: the refinement of one request (virtual so that tests can make it slow).
+  virtual odometry::GlobalCorrection refine(const odometry::GlobalRequest& request);
+
+  std::size_t requestCapacity() const { return requests_.capacity(); }
+
+ private:
+  friend class Daemon;
+  struct Job {
+    odometry::GlobalRequest request;
+    int64_t recv_ns = 0;    ///< the frame reached the daemon (daemon clock) [ns]
+    int64_t submit_ns = 0;  ///< the estimator submitted the request [ns]
+  };
+
+  SpscRing<Job> requests_;                            ///< estimator -> ICP thread
+  SpscRing<odometry::GlobalCorrection> corrections_;  ///< ICP thread -> estimator
+  std::optional<odometry::GlobalRefiner> refiner_;    ///< ICP thread only once started
+  std::mt19937 rng_;                                  ///< ICP thread only
+  HealthCounters* health_ = nullptr;                  ///< the daemon's, set before start
+  int64_t recv_ns_ = 0;  ///< estimator thread: receive time of the frame being processed
+};
+
 class Daemon {
  public:
-  /// `imu` may be null (vision only). `notifier` null means NullNotifier.
+  /// `imu` may be null (vision only). `notifier` null means NullNotifier. `global`: the
+  /// processor's odometry defers its global step to this stage (global mode with
+  /// daemon.global_thread); null = no ICP thread.
   Daemon(DaemonConfig config, std::unique_ptr<drivers::CameraSource> camera,
          std::unique_ptr<drivers::ImuSource> imu, std::unique_ptr<FrameProcessor> processor,
-         std::unique_ptr<Notifier> notifier = nullptr);
+         std::unique_ptr<Notifier> notifier = nullptr, std::shared_ptr<GlobalStage> global = nullptr);
   ~Daemon();
   Daemon(const Daemon&) = delete;
   Daemon& operator=(const Daemon&) = delete;
@@ -46,9 +97,12 @@ class Daemon {
   /// (nothing is left running then).
   bool start();
   /// Stops acquisition, finishes the frame being processed, counts frames still queued
-  /// as dropped at shutdown, publishes poses already computed, joins. Idempotent.
+  /// as dropped at shutdown, publishes poses already computed, lets the ICP thread finish
+  /// the request it holds and counts the queued ones as dropped at shutdown, joins.
+  /// Idempotent.
   void stop();
-  /// True once the camera source reported kEnd and everything queued was handled.
+  /// True once the camera source reported kEnd and everything queued was handled (the ICP
+  /// thread's requests included).
   bool finished() const { return finished_.load(); }
   bool running() const { return running_.load(); }
   const std::string& error() const { return error_; }
@@ -60,6 +114,10 @@ class Daemon {
   DriverFaults driverFaults() const;
   /// processed + dropped (ring, shutdown) + processing failures; equals frames_in after stop().
   uint64_t accountedFrames() const;
+  /// skipped + refined + dropped at shutdown + failed; equals health().global_requests after
+  /// stop() (and once finished()).
+  uint64_t accountedGlobalRequests() const;
+  bool globalThread() const { return global_ != nullptr; }
   /// Current status message (also what the status thread publishes).
   seavio_lcm::status_t statusMessage() const;
   /// Human-readable health summary (SIGUSR1, exit, STATUS=).
@@ -87,6 +145,10 @@ class Daemon {
   void prepare(StereoFrame& f);
   void collectImu(int64_t up_to_ns, bool wait);
   void publishPose(PoseItem& p);
+  void globalLoop();
+  void refineJob(GlobalStage::Job& job);
+  void publishRefined(const OdometryResult& r, int64_t recv_ns, int64_t proc_end_ns);
+  void maybeFinish();
 
   DaemonConfig cfg_;
   std::unique_ptr<drivers::CameraSource> camera_;
@@ -98,6 +160,7 @@ class Daemon {
   std::unique_ptr<SpscRing<ImuSample>> imu_;
   std::unique_ptr<SpscRing<PoseItem>> poses_;
   std::unique_ptr<WorkerPool> pool_;
+  std::shared_ptr<GlobalStage> global_;
 
   HealthCounters health_;
   std::atomic<bool> stop_acq_{false};      ///< camera + IMU threads
@@ -105,6 +168,9 @@ class Daemon {
   std::atomic<bool> camera_ended_{false};
   std::atomic<bool> imu_ended_{false};     ///< no IMU source, or it ended or was stopped
   std::atomic<bool> estimator_done_{false};
+  std::atomic<bool> publisher_done_{false};
+  std::atomic<bool> stop_global_{false};   ///< ICP thread
+  std::atomic<bool> global_done_{false};
   std::atomic<bool> finished_{false};
   std::atomic<bool> running_{false};
   std::atomic<bool> ready_sent_{false};
@@ -119,7 +185,7 @@ class Daemon {
 
   std::atomic<double> frame_rate_hz_{0}, pose_rate_hz_{0}, imu_rate_hz_{0};
 
-  std::thread camera_thread_, imu_thread_, estimator_thread_, publisher_thread_, status_thread_;
+  std::thread camera_thread_, imu_thread_, estimator_thread_, publisher_thread_, status_thread_, global_thread_;
 };
 
 }  // namespace seavio::daemon

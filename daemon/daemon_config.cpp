@@ -174,6 +174,7 @@ void validateDaemonConfig(const DaemonConfig& c, const std::string& origin,
   range("rings.camera_frames", static_cast<long long>(c.rings.camera_frames), 2, 256);
   range("rings.imu_samples", static_cast<long long>(c.rings.imu_samples), 16, 1 << 20);
   range("rings.poses", static_cast<long long>(c.rings.poses), 2, 4096);
+  range("rings.global_requests", static_cast<long long>(c.rings.global_requests), 1, 256);
   range("threads.workers", c.worker_threads, 1, 16);
   range("watchdog_stall_ms", c.watchdog_stall_ms, 100, 600000);
   range("status_period_ms", c.status_period_ms, 100, 60000);
@@ -204,7 +205,7 @@ DaemonConfigResult parseDaemonConfig(const std::string& yaml_text, const std::st
   r.onlyKeys(d, "daemon",
              {"processor", "calibration_dataset", "camera", "imu", "lcm", "rings", "threads", "watchdog_stall_ms", "status_period_ms",
               "camera_imu_time_offset_ns", "imu_gap_ms", "frame_gap_ms", "drain_to_newest",
-              "backpressure", "imu_wait_ms"});
+              "backpressure", "imu_wait_ms", "global_thread"});
   if (!d.IsMap()) return res;
 
   r.get(d, "daemon", "processor", c.processor);
@@ -266,17 +267,20 @@ DaemonConfigResult parseDaemonConfig(const std::string& yaml_text, const std::st
   r.get(lcm, "daemon.lcm", "imu_channel", c.lcm.imu_channel);
 
   const YAML::Node rings = d["rings"];
-  r.onlyKeys(rings, "daemon.rings", {"camera_frames", "imu_samples", "poses"});
+  r.onlyKeys(rings, "daemon.rings", {"camera_frames", "imu_samples", "poses", "global_requests"});
   long long cf = static_cast<long long>(c.rings.camera_frames);
   long long is = static_cast<long long>(c.rings.imu_samples);
   long long ps = static_cast<long long>(c.rings.poses);
+  long long gr = static_cast<long long>(c.rings.global_requests);
   r.get(rings, "daemon.rings", "camera_frames", cf);
   r.get(rings, "daemon.rings", "imu_samples", is);
   r.get(rings, "daemon.rings", "poses", ps);
+  r.get(rings, "daemon.rings", "global_requests", gr);
   // Negative values are kept out of size_t here and reported by validation.
   c.rings.camera_frames = static_cast<std::size_t>(std::max(0LL, cf));
   c.rings.imu_samples = static_cast<std::size_t>(std::max(0LL, is));
   c.rings.poses = static_cast<std::size_t>(std::max(0LL, ps));
+  c.rings.global_requests = static_cast<std::size_t>(std::max(0LL, gr));
 
   const YAML::Node th = d["threads"];
   r.onlyKeys(th, "daemon.threads", {"workers"});
@@ -290,6 +294,7 @@ DaemonConfigResult parseDaemonConfig(const std::string& yaml_text, const std::st
   r.get(d, "daemon", "drain_to_newest", c.drain_to_newest);
   r.get(d, "daemon", "imu_wait_ms", c.imu_wait_ms);
   r.get(d, "daemon", "backpressure", c.backpressure);
+  r.get(d, "daemon", "global_thread", c.global_thread);
 
   validateDaemonConfig(c, origin, res.errors);
   return res;
@@ -346,6 +351,7 @@ std::string describe(const DaemonConfig& c) {
     << "daemon.rings.camera_frames = " << c.rings.camera_frames << "\n"
     << "daemon.rings.imu_samples = " << c.rings.imu_samples << "\n"
     << "daemon.rings.poses = " << c.rings.poses << "\n"
+    << "daemon.rings.global_requests = " << c.rings.global_requests << "\n"
     << "daemon.threads.workers = " << c.worker_threads << "\n"
     << "daemon.watchdog_stall_ms = " << c.watchdog_stall_ms << "\n"
     << "daemon.status_period_ms = " << c.status_period_ms << "\n"
@@ -354,7 +360,8 @@ std::string describe(const DaemonConfig& c) {
     << "daemon.frame_gap_ms = " << c.frame_gap_ms << "\n"
     << "daemon.drain_to_newest = " << (c.drain_to_newest ? "true" : "false") << "\n"
     << "daemon.backpressure = " << (c.backpressure ? "true" : "false") << "\n"
-    << "daemon.imu_wait_ms = " << c.imu_wait_ms << "\n";
+    << "daemon.imu_wait_ms = " << c.imu_wait_ms << "\n"
+    << "daemon.global_thread = " << (c.global_thread ? "true" : "false") << "\n";
   return o.str();
 }
 

@@ -106,6 +106,11 @@ struct DaemonConfig {
   bool backpressure = false;
   /// How long the estimator waits for IMU samples to reach a frame's time [ms].
   int imu_wait_ms = 20;
+  /// Odometry mode global only: run the global step (revisit re-observation, ICP against the
+  /// map, keyframe insertion) on its own thread (issue 8). The local pose of every frame goes
+  /// out at once flagged FLAG_LOCAL_ONLY, the refined one when the ICP thread is done, flagged
+  /// FLAG_GLOBAL_REFINED (same seq). false: inline in the estimator, one pose per frame.
+  bool global_thread = true;
 };
 
 struct DaemonConfigResult {

@@ -15,15 +15,20 @@ namespace seavio::daemon {
 /// "queue" is acquisition to estimator start, "process" the estimator call, "publish"
 /// estimator end to LCM publish, "end_to_end" acquisition to publish (all daemon clock),
 /// "capture_to_publish" the frame's capture stamp to publish when the source stamps on
-/// the daemon's monotonic clock.
+/// the daemon's monotonic clock. With the global step on its own thread (issue 8):
+/// "global_queue" request submitted to refinement start, "global" the refinement itself,
+/// "refined_end_to_end" acquisition to the refined pose's publication and
+/// "refined_capture_to_publish" its capture stamp to publication (same clock condition).
 enum class Stage : int {
   kRectify, kFeatures, kStereo, kTemporal, kTensor, kIcp,
   kQueue, kProcess, kPublish, kEndToEnd, kCaptureToPublish,
+  kGlobalQueue, kGlobal, kRefinedEndToEnd, kRefinedCaptureToPublish,
   kCount
 };
 inline constexpr std::array<std::string_view, static_cast<int>(Stage::kCount)> kStageNames = {
     "rectify", "features", "stereo", "temporal", "tensor", "icp",
-    "queue", "process", "publish", "end_to_end", "capture_to_publish"};
+    "queue", "process", "publish", "end_to_end", "capture_to_publish",
+    "global_queue", "global", "refined_end_to_end", "refined_capture_to_publish"};
 
 struct HealthCounters {
   std::atomic<uint64_t> frames_in{0};           ///< accepted into the camera ring or dropped there
@@ -42,6 +47,21 @@ struct HealthCounters {
   std::atomic<uint64_t> imu_only_frames{0};
   std::atomic<uint64_t> camera_source_errors{0};
   std::atomic<uint64_t> imu_source_errors{0};
+  // Global step on its own thread (daemon.global_thread). Every request the estimator makes
+  // ends in exactly one of: skipped (ring full), refined, dropped at shutdown, failed:
+  // global_requests = global_skipped + global_refined + global_dropped_shutdown + global_failures
+  // once stopped. Of the refined: applied (the map moved the frame), rejected (ICP gated),
+  // the rest had no older ground near them.
+  std::atomic<uint64_t> global_requests{0};     ///< frames handed to the global step
+  std::atomic<uint64_t> global_skipped{0};      ///< request ring full: frame kept its local pose
+  std::atomic<uint64_t> global_refined{0};      ///< refinements completed (refined pose published or counted)
+  std::atomic<uint64_t> global_applied{0};      ///< ...of which moved the frame (revisit or ICP)
+  std::atomic<uint64_t> global_rejected{0};     ///< ...of which ICP ran but was refused (failed or too large)
+  std::atomic<uint64_t> global_dropped_shutdown{0};  ///< still queued at stop
+  std::atomic<uint64_t> global_failures{0};     ///< refinement threw
+  std::atomic<uint64_t> global_lost{0};         ///< correction ring full (cannot happen by sizing)
+  std::atomic<uint64_t> global_corrections_applied{0};  ///< corrections the estimator composed in
+  std::atomic<uint64_t> refined_published{0};   ///< FLAG_GLOBAL_REFINED poses on LCM
   std::atomic<int64_t> last_frame_recv_ns{0};   ///< daemon clock [ns], 0 = never
   std::atomic<int64_t> last_pose_pub_ns{0};
   std::atomic<int> features_left{0}, features_right{0}, ransac_inliers{0}, icp_inliers{0};

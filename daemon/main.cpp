@@ -99,6 +99,12 @@ int main(int argc, char** argv) {
   }
 
   std::unique_ptr<seavio::daemon::FrameProcessor> processor;
+  // Global mode: the global step on its own thread unless daemon.global_thread is false.
+  std::shared_ptr<seavio::daemon::GlobalStage> global;
+  if (cfg.processor == "odometry" && cfg.global_thread && odo_params.mode == seavio::odometry::Mode::kGlobal) {
+    global = std::make_shared<seavio::daemon::GlobalStage>(cfg.rings, odo_params.seed);
+    odo_params.global_link = global;
+  }
   if (cfg.processor == "odometry") {
     std::shared_ptr<const seavio::drivers::Dataset> calib = src.dataset;
     std::string key = "daemon.camera.dataset";
@@ -112,20 +118,24 @@ int main(int argc, char** argv) {
       }
     }
     std::string why;
-    processor = seavio::daemon::OdometryProcessor::create(calib->calibration, calib->imu_noise, odo_params, &why);
-    if (!processor) {
+    std::unique_ptr<seavio::daemon::OdometryProcessor> odometry =
+        seavio::daemon::OdometryProcessor::create(calib->calibration, calib->imu_noise, odo_params, &why);
+    if (!odometry) {
       std::cerr << "seaviod: " << config_path << ": " << key << ": calibration unusable: " << why << "\n";
       return 2;
     }
+    if (global) global->setRefiner(odometry->odometry().makeGlobalRefiner([] { return seavio::daemon::monotonicNowNs(); }));
+    processor = std::move(odometry);
   } else {
     processor = std::make_unique<seavio::daemon::ImuDeadReckoningProcessor>(
         src.dataset ? src.dataset->imu_noise : seavio::imu::ImuNoise{});
   }
-  spdlog::info("estimator: {}", processor->name());
+  spdlog::info("estimator: {}{}", processor->name(),
+               global ? ", global map step on its own thread" : "");
 
 
   seavio::daemon::Daemon daemon(cfg, std::move(src.camera), std::move(src.imu), std::move(processor),
-                                std::make_unique<seavio::daemon::SystemdNotifier>());
+                                std::make_unique<seavio::daemon::SystemdNotifier>(), global);
   if (!daemon.start()) {
     std::cerr << "seaviod: start failed: " << daemon.error() << "\n";
     close(sfd);
@@ -163,6 +173,10 @@ done:
   std::cerr << daemon.summary();
   if (daemon.accountedFrames() != daemon.health().frames_in) {
     std::cerr << "seaviod: frame accounting mismatch\n";
+    exit_code = 1;
+  }
+  if (daemon.accountedGlobalRequests() != daemon.health().global_requests) {
+    std::cerr << "seaviod: global request accounting mismatch\n";
     exit_code = 1;
   }
   close(sfd);

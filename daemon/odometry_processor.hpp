@@ -4,14 +4,22 @@
 /// images are detected and described in parallel (issue 8): the right one on a persistent
 /// worker, the left one on the calling (estimator) thread. Core stays single-threaded: the
 /// processor drives Frontend's per-image calls and hands the result to Odometry::track.
+///
+/// Header-only, like WorkerPool, so that `seavio run --threads` (tools/sequence_runner.cpp)
+/// drives exactly this class without linking the daemon library and its drivers.
+#include <chrono>
 #include <cstddef>
+#include <exception>
+#include <future>
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include <opencv2/core.hpp>
 
 #include "core/camera/camera_model.hpp"
+#include "core/common/stage_timer.hpp"
 #include "core/odometry/odometry.hpp"
 #include "daemon/frame_processor.hpp"
 #include "daemon/worker_pool.hpp"
@@ -20,18 +28,32 @@ namespace seavio::daemon {
 
 class OdometryProcessor : public FrameProcessor {
  public:
-  /// Empty optional and `error` set if the calibration cannot be rectified.
+  /// Empty optional and `error` set if the calibration cannot be rectified. The odometry
+  /// times its stages with std::chrono::steady_clock [ns] (the daemon's monotonic clock).
   /// @param feature_threads threads extracting features per frame: 1 = all on the caller,
   ///        2 (default) = right image on one persistent worker in parallel with the left
   static std::unique_ptr<OdometryProcessor> create(const camera::StereoCalibration& calib,
                                                    const imu::ImuNoise& noise,
                                                    const odometry::OdometryParams& params,
-                                                   std::string* error, std::size_t feature_threads = 2);
+                                                   std::string* error, std::size_t feature_threads = 2) {
+    std::optional<camera::StereoRectifier> rect = camera::StereoRectifier::create(calib, error);
+    if (!rect) return nullptr;
+    return std::make_unique<OdometryProcessor>(odometry::Odometry(std::move(*rect), noise, params, steadyNowNs),
+                                               feature_threads);
+  }
+
   /// Output identical for any `feature_threads`: only the order of independent work changes.
-  OdometryResult process(const StereoFrame& frame, std::span<const ImuSample> imu) override;
+  OdometryResult process(const StereoFrame& frame, std::span<const ImuSample> imu) override {
+    if (!pool_) return odo_.process(frame, imu);
+    return odo_.track(extractParallel(frame), imu);
+  }
   std::string name() const override { return "stereo-odometry"; }
 
-  explicit OdometryProcessor(odometry::Odometry odo, std::size_t feature_threads = 2);
+  /// Takes `odo` as it is (its clock included).
+  explicit OdometryProcessor(odometry::Odometry odo, std::size_t feature_threads = 2) : odo_(std::move(odo)) {
+    // A queue of one: the processor never has more than one job in flight.
+    if (feature_threads >= 2) pool_ = std::make_unique<WorkerPool>(1, 1);
+  }
 
   /// Threads used for feature extraction (1 or 2).
   std::size_t featureThreads() const { return pool_ ? 2 : 1; }
@@ -40,13 +62,50 @@ class OdometryProcessor : public FrameProcessor {
   std::size_t parallelFrames() const { return parallel_frames_; }
   const odometry::Odometry& odometry() const { return odo_; }
 
+  /// std::chrono::steady_clock now [ns].
+  static int64_t steadyNowNs() {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+        .count();
+  }
+
  private:
-  odometry::FrameFeatures extractParallel(const StereoFrame& frame);
+  odometry::FrameFeatures extractParallel(const StereoFrame& frame) {
+    const odometry::Frontend& frontend = odo_.frontend();
+    odometry::FrameFeatures f;
+    f.t_ns = frame.t_ns;
+    f.seq = frame.seq;
+    f.detector_threshold = odo_.detectorThreshold();
+    StageTimer timer(now_);
+    frontend.rectify(frame, left_rect_, right_rect_);
+    f.times.rectify_ms = timer.lap_ms();
+    // Frontend::detect is const and stateless, so both images may be described at once.
+    const double threshold = f.detector_threshold;
+    std::optional<std::future<void>> right_done =
+        pool_->submit([&] { f.right = frontend.detect(right_rect_, threshold); });
+    try {
+      f.left = frontend.detect(left_rect_, threshold);
+    } catch (...) {
+      // The job refers to `f` and the images: it must finish before they go out of scope.
+      if (right_done) right_done->wait();
+      throw;
+    }
+    if (right_done) {
+      right_done->get();  // rethrows the worker's exception, if any
+      ++parallel_frames_;
+    } else {
+      f.right = frontend.detect(right_rect_, threshold);
+    }
+    f.times.features_ms = timer.lap_ms();
+    f.stereo = frontend.matchStereo(f.left, f.right);
+    f.times.stereo_ms = timer.lap_ms();
+    return f;
+  }
 
   odometry::Odometry odo_;
   std::unique_ptr<WorkerPool> pool_;  ///< one persistent worker; null when sequential
   cv::Mat left_rect_, right_rect_;    ///< reused across frames (no per-frame allocation)
   std::size_t parallel_frames_ = 0;
+  const NowNsFn now_ = steadyNowNs;   ///< stage times of the parallel path
 };
 
 }  // namespace seavio::daemon

@@ -9,7 +9,15 @@ StampCheck TimestampMonitor::check(int64_t t_ns) {
     return StampCheck::kFirst;
   }
   if (t_ns == last_) return StampCheck::kDuplicate;
-  if (t_ns < last_) return StampCheck::kOutOfOrder;
+  if (t_ns < last_) {
+    run_ = (run_ > 0 && t_ns > run_last_) ? run_ + 1 : 1;
+    run_last_ = t_ns;
+    if (run_ < restart_after_) return StampCheck::kOutOfOrder;
+    run_ = 0;
+    last_ = t_ns;
+    return StampCheck::kRestart;
+  }
+  run_ = 0;
   const int64_t dt = t_ns - last_;
   last_ = t_ns;
   return dt > max_gap_ns_ ? StampCheck::kGap : StampCheck::kOk;

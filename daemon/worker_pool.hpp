@@ -2,6 +2,11 @@
 /// Persistent worker threads, fixed at construction, running submitted jobs; each job
 /// returns a std::future so callers wait for completion with a timeout (issue 6: no
 /// thread is started per frame). Used to process the left and right images in parallel.
+///
+/// Header-only so that `seavio run` (tools/sequence_runner.cpp, also compiled into tool
+/// tests that do not link seavio_daemon) shares this pool with the daemon (issue 8).
+#include <algorithm>
+#include <chrono>
 #include <condition_variable>
 #include <cstddef>
 #include <deque>
@@ -17,24 +22,66 @@ namespace seavio::daemon {
 class WorkerPool {
  public:
   /// Starts `threads` workers (at least 1) with room for `max_queued` pending jobs.
-  explicit WorkerPool(std::size_t threads, std::size_t max_queued = 64);
-  ~WorkerPool();
+  explicit WorkerPool(std::size_t threads, std::size_t max_queued = 64)
+      : max_queued_(std::max<std::size_t>(1, max_queued)) {
+    const std::size_t n = std::max<std::size_t>(1, threads);
+    threads_.reserve(n);
+    for (std::size_t i = 0; i < n; ++i) threads_.emplace_back([this] { loop(); });
+  }
+  ~WorkerPool() { stop(); }
   WorkerPool(const WorkerPool&) = delete;
   WorkerPool& operator=(const WorkerPool&) = delete;
 
   /// Queues `job`. Empty optional if the pool is stopped or the queue is full (the caller
   /// then runs the job itself or counts it). Exceptions thrown by the job reach the future.
-  std::optional<std::future<void>> submit(std::function<void()> job);
+  std::optional<std::future<void>> submit(std::function<void()> job) {
+    std::packaged_task<void()> task(std::move(job));
+    std::future<void> fut = task.get_future();
+    {
+      std::lock_guard<std::mutex> lock(m_);
+      if (stopping_ || jobs_.size() >= max_queued_) return std::nullopt;
+      jobs_.push_back(std::move(task));
+    }
+    cv_.notify_one();
+    return fut;
+  }
 
   /// Finishes the jobs already queued, then joins every worker. Idempotent.
-  void stop();
+  void stop() {
+    {
+      std::lock_guard<std::mutex> lock(m_);
+      stopping_ = true;
+    }
+    cv_.notify_all();
+    for (auto& t : threads_) {
+      if (t.joinable()) t.join();
+    }
+  }
 
   std::size_t threadCount() const { return threads_.size(); }
   /// Jobs finished so far; counted just after each job's future becomes ready.
-  std::size_t jobsCompleted() const;
+  std::size_t jobsCompleted() const {
+    std::lock_guard<std::mutex> lock(m_);
+    return completed_;
+  }
 
  private:
-  void loop();
+  void loop() {
+    for (;;) {
+      std::packaged_task<void()> task;
+      {
+        std::unique_lock<std::mutex> lock(m_);
+        // Timed wait so a lost wake-up can never hang shutdown.
+        while (!stopping_ && jobs_.empty()) cv_.wait_for(lock, std::chrono::milliseconds(100));
+        if (jobs_.empty()) return;  // stopping and nothing left
+        task = std::move(jobs_.front());
+        jobs_.pop_front();
+      }
+      task();
+      std::lock_guard<std::mutex> lock(m_);
+      ++completed_;
+    }
+  }
 
   mutable std::mutex m_;
   std::condition_variable cv_;

@@ -2,8 +2,10 @@
 # Instruction counts (callgrind Ir) of the hot paths on fixed synthetic input (issue 8), so a
 # speed-up is visible on a loaded machine where wall-clock benchmarks wander. Each stage runs
 # once in bench/hotpaths with instrumentation on only around the stage; one summary line per
-# stage, then the top functions of each (callgrind_annotate).
-#   scripts/callgrind.sh                     all stages: surf_detect surf_describe ransac icp frame
+# stage with its heap allocations (calls of malloc, calloc, realloc, posix_memalign,
+# aligned_alloc, memalign: operator new and cv::fastMalloc end in these), then the top
+# functions of each (callgrind_annotate).
+#   scripts/callgrind.sh                     all stages: surf_detect surf_describe ransac icp frame frame2
 #   scripts/callgrind.sh ransac icp          only these
 # Environment: SEAVIO_BUILD_DIR (default build), SEAVIO_JOBS (default 2), OUT (default
 # callgrind-results/), TOP (functions listed per stage, default 8).
@@ -15,18 +17,35 @@ out=${OUT:-callgrind-results}
 top=${TOP:-8}
 command -v valgrind >/dev/null || { echo "callgrind.sh: valgrind not installed (apt-get install valgrind)" >&2; exit 1; }
 stages=("$@")
-[ ${#stages[@]} -gt 0 ] || stages=(surf_detect surf_describe ransac icp frame)
+[ ${#stages[@]} -gt 0 ] || stages=(surf_detect surf_describe ransac icp frame frame2)
 mkdir -p "$out"
 
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build "$build" -j"$jobs" --target hotpaths >/dev/null
 
-declare -A ir
+declare -A ir allocs
+# Calls of the C allocators recorded in a callgrind file (names are compressed to "(id)" after
+# their first use, so ids are resolved as they are defined).
+count_allocs() {
+  awk '
+    function name_of(s,   id, rest) {
+      if (match(s, /^\([0-9]+\)/)) {
+        id = substr(s, RSTART, RLENGTH); rest = substr(s, RLENGTH + 2)
+        if (rest != "") names[id] = rest
+        return names[id]
+      }
+      return s
+    }
+    /^c?fn=/ { n = name_of(substr($0, index($0, "=") + 1)); if ($0 ~ /^cfn=/) callee = n; next }
+    /^calls=/ { if (callee ~ /^(malloc|calloc|realloc|posix_memalign|aligned_alloc|memalign)$/) { split(substr($0, 7), a, " "); total += a[1] } }
+    END { print total + 0 }' "$1"
+}
 for s in "${stages[@]}"; do
   f="$out/$s.callgrind"
   valgrind --tool=callgrind --instr-atstart=no --callgrind-out-file="$f" "$build/bench/hotpaths" "$s" \
     2>"$out/$s.log" | sed 's/^/  /'
   ir[$s]=$(awk '/^totals:/ {print $2}' "$f")
+  allocs[$s]=$(count_allocs "$f")
   # Function lines only (after the PROGRAM TOTALS line), names cut to 150 characters.
   callgrind_annotate --threshold=100 "$f" 2>/dev/null |
     awk -v top="$top" '/PROGRAM TOTALS/ {go = 1; next} go && /^ *[0-9,]+ / && n < top {print substr($0, 1, 150); n++}' \
@@ -34,8 +53,10 @@ for s in "${stages[@]}"; do
 done
 
 echo
-printf '%-14s %16s\n' stage 'Ir'
-for s in "${stages[@]}"; do printf '%-14s %16s\n' "$s" "$(printf "%'d" "${ir[$s]}" 2>/dev/null || echo "${ir[$s]}")"; done
+printf '%-14s %16s %8s\n' stage 'Ir' allocs
+for s in "${stages[@]}"; do
+  printf '%-14s %16s %8s\n' "$s" "$(printf "%'d" "${ir[$s]}" 2>/dev/null || echo "${ir[$s]}")" "${allocs[$s]}"
+done
 for s in "${stages[@]}"; do
   echo
   echo "== $s: top $top functions (self Ir)"

@@ -18,6 +18,7 @@
 #include "drivers/config/odometry_config.hpp"
 #include "drivers/dataset/tum_io.hpp"
 #include "tools/eval_report.hpp"
+#include "tools/plot.hpp"
 #include "tools/sequence_runner.hpp"
 #include "tools/simulate/sequence_writer.hpp"
 
@@ -164,6 +165,14 @@ void printMemory(std::ostream& os, const std::vector<BenchRun>& runs) {
   for (const auto& r : runs)
     os << fmt::format("{:<8}{:<7}{:>8}{:>12}{:>12.1f}{:>20.3f}{:>12}{:>10}\n", r.variant, r.dataset, r.frames,
                       r.map_keyframes, r.rss_mb, r.map_mb_per_1000_frames, r.imu_only_frames, r.revisit_corrections);
+  for (const auto& r : runs) {
+    if (r.rss.empty()) continue;
+    os << fmt::format("{:<8}{:<7} RSS [MiB] after", r.variant, r.dataset);
+    for (const auto& m : r.rss) os << fmt::format(" {}: {:.1f};", m.frames, m.rss_mb);
+    os << "\n";
+  }
+  os << "(one process runs every variant in turn: a later run's RSS includes what the allocator kept from earlier "
+        "ones)\n";
   for (const auto& r : runs)
     if (!r.plot_path.empty()) os << "error over distance: " << r.plot_path << "\n";
 }
@@ -178,6 +187,88 @@ void printStageTable(std::ostream& os, const std::vector<StageRow>& rows) {
                       r.ms.max, goal, verdict);
   }
   os << "times in ms per call; goals from issue 8 (640 x 480).\n";
+}
+
+LineFit fitLine(const std::vector<double>& x, const std::vector<double>& y) {
+  LineFit f;
+  const std::size_t n = std::min(x.size(), y.size());
+  if (n < 2) return f;
+  double mx = 0, my = 0;
+  for (std::size_t i = 0; i < n; ++i) mx += x[i], my += y[i];
+  mx /= static_cast<double>(n), my /= static_cast<double>(n);
+  double sxx = 0, sxy = 0, syy = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    sxx += (x[i] - mx) * (x[i] - mx);
+    sxy += (x[i] - mx) * (y[i] - my);
+    syy += (y[i] - my) * (y[i] - my);
+  }
+  if (!(sxx > 0)) return f;
+  f.n = static_cast<int>(n);
+  f.slope = sxy / sxx;
+  f.intercept = my - f.slope * mx;
+  f.r2 = syy > 0 ? (sxy * sxy) / (sxx * syy) : 1.0;
+  return f;
+}
+
+std::vector<FrameTimeRow> frameTimeRows(const std::vector<OdometryResult>& results,
+                                        const std::vector<eval::TimedPose>& gt) {
+  std::vector<double> along(gt.size(), 0.0);
+  for (std::size_t i = 1; i < gt.size(); ++i)
+    along[i] = along[i - 1] + (gt[i].T_W_B.translation() - gt[i - 1].T_W_B.translation()).norm();
+  std::vector<FrameTimeRow> rows;
+  rows.reserve(results.size());
+  for (std::size_t i = 0; i < results.size(); ++i) {
+    const OdometryResult& r = results[i];
+    FrameTimeRow row;
+    row.frame = static_cast<int>(i);
+    const auto it = std::lower_bound(gt.begin(), gt.end(), r.t_ns,
+                                     [](const eval::TimedPose& g, int64_t t) { return g.t_ns < t; });
+    if (!gt.empty()) row.distance_m = along[std::min<std::size_t>(static_cast<std::size_t>(it - gt.begin()), gt.size() - 1)];
+    row.total_ms = r.times.total_ms;
+    row.features_ms = r.times.features_ms;
+    row.icp_ms = r.times.icp_ms;
+    row.features = r.quality.features_left;
+    row.model_points = r.quality.model_points;
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+namespace {
+constexpr const char* kFrameCsvHeader = "frame,distance_m,total_ms,features_ms,icp_ms,features,model_points";
+}  // namespace
+
+void writeFrameTimesCsv(const std::string& path, const std::vector<FrameTimeRow>& rows) {
+  std::ofstream os(path);
+  os << kFrameCsvHeader << "\n";
+  for (const auto& r : rows)
+    os << fmt::format("{},{:.3f},{:.4f},{:.4f},{:.4f},{},{}\n", r.frame, r.distance_m, r.total_ms, r.features_ms,
+                      r.icp_ms, r.features, r.model_points);
+  if (!os) throw std::runtime_error(path + ": cannot write");
+}
+
+std::vector<FrameTimeRow> readFrameTimesCsv(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw drivers::InputError(path + ": cannot open");
+  std::string line;
+  if (!std::getline(in, line) || line != kFrameCsvHeader)
+    throw drivers::InputError(path + ":1: expected the header '" + std::string(kFrameCsvHeader) + "'");
+  std::vector<FrameTimeRow> rows;
+  int line_no = 1;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (line.empty()) continue;
+    std::replace(line.begin(), line.end(), ',', ' ');
+    std::istringstream fields(line);
+    FrameTimeRow r;
+    std::string extra;
+    if (!(fields >> r.frame >> r.distance_m >> r.total_ms >> r.features_ms >> r.icp_ms >> r.features >> r.model_points) ||
+        (fields >> extra) || !std::isfinite(r.distance_m) || !std::isfinite(r.total_ms) || !std::isfinite(r.icp_ms) ||
+        !std::isfinite(r.features_ms))
+      throw drivers::InputError(fmt::format("{}:{}: expected 7 numbers ({})", path, line_no, kFrameCsvHeader));
+    rows.push_back(r);
+  }
+  return rows;
 }
 
 std::optional<int64_t> parseVmRssKb(const std::string& text) {
@@ -249,20 +340,43 @@ double msSince(std::chrono::steady_clock::time_point t0) {
 
 std::vector<BenchRun> runPaperBench(const PaperBenchOptions& o) {
   for (const auto& v : o.variants) (void)paramsFor("", v);
+  if (!o.data_dir.empty() && (o.scale != 1.0 || o.width_px != 0))
+    throw std::invalid_argument("--data: the rendered surveys are used as they are; drop --scale and --width");
+  if (o.max_frames < 0) throw std::invalid_argument(fmt::format("--max-frames: must be >= 0, got {}", o.max_frames));
   fs::create_directories(o.out_dir);
   std::vector<BenchRun> runs;
   for (const auto& preset : o.presets) {
-    simulate::SimConfig c = scaledPaperConfig(preset, o.scale, o.seed, o.width_px);
-    if (o.max_frames > 0) c.frames = std::min(c.frames, o.max_frames);
-    const fs::path dir = fs::path(o.out_dir) /
-                         fmt::format("{}-scale{}-seed{}-w{}-n{}", preset, scaleTag(o.scale), o.seed, c.rig.width, c.frames);
-    const drivers::Dataset ds = renderOrReuse(c, dir, o.reuse);
+    drivers::Dataset ds;
+    std::size_t n_frames = 0;  // all
+    if (!o.data_dir.empty()) {
+      const fs::path dir = fs::path(o.data_dir) / preset;
+      if (!fs::exists(dir / "mav0"))
+        throw drivers::InputError(dir.string() + ": no rendered survey (expected " + (dir / "mav0").string() +
+                                  "; make it with `seavio simulate " + preset + " --out " + dir.string() + "`)");
+      spdlog::info("bench: using the rendered survey {}", dir.string());
+      ds = drivers::loadEuroc(dir.string());
+      if (o.max_frames > 0) n_frames = static_cast<std::size_t>(o.max_frames);
+    } else {
+      simulate::SimConfig c = scaledPaperConfig(preset, o.scale, o.seed, o.width_px);
+      if (o.max_frames > 0) c.frames = std::min(c.frames, o.max_frames);
+      const fs::path dir = fs::path(o.out_dir) / fmt::format("{}-scale{}-seed{}-w{}-n{}", preset, scaleTag(o.scale),
+                                                             o.seed, c.rig.width, c.frames);
+      ds = renderOrReuse(c, dir, o.reuse);
+    }
+    if (ds.frames.empty()) throw drivers::InputError(ds.root + ": no stereo frames");
+    const std::size_t used = n_frames > 0 ? std::min(n_frames, ds.frames.size()) : ds.frames.size();
+    const int64_t last_t_ns = ds.frames[used - 1].t_ns;
     std::vector<eval::TimedPose> gt;
-    for (const auto& g : ds.ground_truth) gt.push_back({g.t_ns, g.T_W_B});
+    for (const auto& g : ds.ground_truth)
+      if (g.t_ns <= last_t_ns) gt.push_back({g.t_ns, g.T_W_B});
     const std::string data = preset.substr(preset.find('-') + 1);
     for (const auto& variant : o.variants) {
-      spdlog::info("bench: {} on {} ({} frames)", variant, preset, ds.frames.size());
-      const SequenceRun sr = runSequence(ds, paramsFor(o.config, variant));
+      spdlog::info("bench: {} on {} ({} frames)", variant, preset, used);
+      std::vector<MemorySample> rss;
+      const SequenceRun sr = runSequence(ds, paramsFor(o.config, variant), used, [&](std::size_t i, const OdometryResult&) {
+        if ((i + 1) % 1000 == 0 || i + 1 == used)
+          if (const auto mb = residentMemoryMb()) rss.push_back({i + 1, *mb});
+      });
       const eval::TrajectoryMetrics m = eval::evaluateTrajectory(gt, sr.trajectory);
       BenchRun r;
       r.variant = variant;
@@ -282,8 +396,15 @@ std::vector<BenchRun> runPaperBench(const PaperBenchOptions& o) {
       r.revisit_corrections = sr.revisit_corrections;
       r.map_mb_per_1000_frames =
           r.frames > 0 ? static_cast<double>(sr.map_bytes) / (1024.0 * 1024.0) * 1000.0 / r.frames : 0.0;
+      r.rss = std::move(rss);
       const fs::path stem = fs::path(o.out_dir) / fmt::format("{}-{}", variant, data);
       drivers::writeTum(stem.string() + ".txt", sr.trajectory);
+      r.frames_csv = stem.string() + "-frames.csv";
+      writeFrameTimesCsv(r.frames_csv, frameTimeRows(sr.results, gt));
+      RunStats stats;
+      for (const auto& x : sr.results) stats.add(x);
+      for (const auto& x : r.rss) stats.addMemorySample(x.frames, x.rss_mb);
+      stats.writeJson(stem.string() + "-stats.json");
       if (m.associated > 0) {
         r.plot_path = stem.string() + ".png";
         writeTrajectoryPlot(r.plot_path, gt, m.est_first_aligned, m);
@@ -402,6 +523,156 @@ std::vector<StageRow> runStageBench(const StageBenchOptions& o) {
   rows.push_back(row("frame total, local", column(local, &StageTimes::total_ms), -1));
   rows.push_back(row("frame total, global", column(global, &StageTimes::total_ms), 16.0));
   return rows;
+}
+
+namespace {
+
+/// Per-frame total time against frame index, dots coloured by whether ICP ran against the map,
+/// with the fitted line.
+void plotFrameTimes(const std::string& path, const std::vector<FrameTimeRow>& rows, const LineFit& fit) {
+  cv::Mat img(545, 900, CV_8UC3, cv::Scalar(255, 255, 255));
+  std::vector<double> totals;
+  for (const auto& r : rows) totals.push_back(r.total_ms);
+  const Percentiles p = percentiles(totals);
+  const double ymax = std::max(1.0, 1.15 * std::max(p.p99, fit.intercept + fit.slope * static_cast<double>(rows.size())));
+  const plot::Axes a{cv::Rect(90, 50, 780, 400), 0.0, std::max(1.0, static_cast<double>(rows.size())), 0.0, ymax};
+  plot::drawAxes(img, a, "frame", "time per frame [ms]",
+                 fmt::format("per-frame time over the survey: fit {:+.3f} ms per 1000 frames", fit.slope * 1000.0));
+  for (const auto& r : rows)
+    cv::circle(img, a.px(r.frame, r.total_ms), 1, r.model_points > 0 ? plot::kRed : plot::kBlue, cv::FILLED);
+  plot::polyline(img, a, {{0.0, fit.intercept}, {static_cast<double>(rows.size()), fit.intercept + fit.slope * rows.size()}},
+                 plot::kBlack, 2);
+  cv::putText(img, "blue: tensor + local; red: ICP against the map; black: least-squares line", {95, 530}, plot::kFont,
+              0.45, plot::kDarkGrey, 1, cv::LINE_AA);
+  plot::writePng(path, img);
+}
+
+/// Median time per frame against median features per image over the sweep, p99 as whiskers.
+void plotFeatureSweep(const std::string& path, const std::vector<FeatureSweepRow>& rows, const LineFit& fit) {
+  cv::Mat img(545, 900, CV_8UC3, cv::Scalar(255, 255, 255));
+  double xmax = 1, ymax = 1;
+  for (const auto& r : rows) xmax = std::max(xmax, 1.1 * r.features.median), ymax = std::max(ymax, 1.1 * r.total_ms.p99);
+  const plot::Axes a{cv::Rect(90, 50, 780, 400), 0.0, xmax, 0.0, ymax};
+  plot::drawAxes(img, a, "features per image (median)", "time per frame [ms]",
+                 fmt::format("time vs features: {:.2f} ms per 100 features + {:.1f} ms, R^2 {:.3f}", 100 * fit.slope,
+                             fit.intercept, fit.r2));
+  plot::polyline(img, a, {{0.0, fit.intercept}, {xmax, fit.intercept + fit.slope * xmax}}, plot::kGrey, 2);
+  for (const auto& r : rows) {
+    cv::line(img, a.px(r.features.median, r.total_ms.median), a.px(r.features.median, r.total_ms.p99), plot::kBlue, 1);
+    cv::circle(img, a.px(r.features.median, r.total_ms.median), 5, plot::kRed, cv::FILLED);
+  }
+  cv::putText(img, "red: median per frame; blue: up to p99; grey: least-squares line through the medians", {95, 530},
+              plot::kFont, 0.45, plot::kDarkGrey, 1, cv::LINE_AA);
+  plot::writePng(path, img);
+}
+
+}  // namespace
+
+ScalingResult runScalingBench(const ScalingBenchOptions& o) {
+  if (o.dataset.empty() == o.frames_csv.empty())
+    throw std::invalid_argument("bench scaling: give exactly one of --dataset and --frames-csv");
+  if (o.sweep_frames < 20) throw std::invalid_argument(fmt::format("--sweep-frames: must be >= 20, got {}", o.sweep_frames));
+  if (o.max_frames < 0) throw std::invalid_argument(fmt::format("--max-frames: must be >= 0, got {}", o.max_frames));
+  for (int t : o.targets)
+    if (t < 10 || t > 20000) throw std::invalid_argument(fmt::format("--targets: each must be in [10, 20000], got {}", t));
+  fs::create_directories(o.out_dir);
+  ScalingResult res;
+
+  // 1. Time against survey length: a global run, whose map grows all along.
+  if (!o.frames_csv.empty()) {
+    res.frames = readFrameTimesCsv(o.frames_csv);
+  } else {
+    const drivers::Dataset ds = drivers::loadDataset(o.dataset);
+    spdlog::info("bench scaling: global over {} ({} frames)", ds.root, ds.frames.size());
+    const SequenceRun sr = runSequence(ds, paramsFor(o.config, "global"), static_cast<std::size_t>(o.max_frames));
+    std::vector<eval::TimedPose> gt;
+    for (const auto& g : ds.ground_truth) gt.push_back({g.t_ns, g.T_W_B});
+    res.frames = frameTimeRows(sr.results, gt);
+  }
+  if (res.frames.size() < 2) throw drivers::InputError("bench scaling: fewer than 2 frames to fit");
+  std::vector<double> idx, total;
+  for (const auto& r : res.frames)
+    if (r.frame > 0) idx.push_back(r.frame), total.push_back(r.total_ms);  // frame 0 only initialises
+  res.time_vs_frame = fitLine(idx, total);
+  res.frames_csv = (fs::path(o.out_dir) / "scaling-frames.csv").string();
+  writeFrameTimesCsv(res.frames_csv, res.frames);
+  res.frames_png = (fs::path(o.out_dir) / "scaling-frames.png").string();
+  plotFrameTimes(res.frames_png, res.frames, res.time_vs_frame);
+
+  // 2. Time against feature count: the same short sequence with the controller aiming at
+  // each target in turn.
+  simulate::SimConfig c = simulate::presetConfig("short-plain");
+  c.seed = o.seed;
+  c.frames = o.sweep_frames;
+  if (o.width_px > 0) {
+    const simulate::SimConfig w = scaledPaperConfig("paper-plain", 1.0, o.seed, o.width_px);
+    c.rig = w.rig;
+    c.seafloor.resolution_m = w.seafloor.resolution_m;
+  }
+  const fs::path dir = fs::path(o.out_dir) / fmt::format("short-plain-{}f-seed{}-w{}", c.frames, c.seed, c.rig.width);
+  const drivers::Dataset ds = renderOrReuse(c, dir, o.reuse);
+  std::vector<double> feat_med, time_med;
+  for (int target : o.targets) {
+    odometry::OdometryParams p = paramsFor(o.config, "global");
+    const int base_target = std::max(p.features.controller.target_count, 1);
+    p.features.controller.target_count = target;
+    // Keep a configured cap proportional to the target so it does not clip the sweep.
+    if (p.features.max_features > 0)
+      p.features.max_features = std::max(1, static_cast<int>(std::lround(static_cast<double>(p.features.max_features) *
+                                                                          target / base_target)));
+    spdlog::info("bench scaling: {} features per image over {} frames", target, ds.frames.size());
+    const SequenceRun sr = runSequence(ds, p);
+    std::vector<double> f, t, ft;
+    // Skip the first second: the controller settles from its initial threshold.
+    for (std::size_t i = 10; i < sr.results.size(); ++i) {
+      f.push_back(sr.results[i].quality.features_left);
+      t.push_back(sr.results[i].times.total_ms);
+      ft.push_back(sr.results[i].times.features_ms);
+    }
+    FeatureSweepRow row{target, static_cast<int>(f.size()), percentiles(f), percentiles(t), percentiles(ft)};
+    feat_med.push_back(row.features.median);
+    time_med.push_back(row.total_ms.median);
+    res.sweep.push_back(row);
+  }
+  res.time_vs_features = fitLine(feat_med, time_med);
+  res.features_csv = (fs::path(o.out_dir) / "scaling-features.csv").string();
+  {
+    std::ofstream os(res.features_csv);
+    os << "target,frames,features_median,features_p99,total_ms_median,total_ms_p99,features_ms_median\n";
+    for (const auto& r : res.sweep)
+      os << fmt::format("{},{},{:.1f},{:.1f},{:.3f},{:.3f},{:.3f}\n", r.target, r.frames, r.features.median,
+                        r.features.p99, r.total_ms.median, r.total_ms.p99, r.features_ms.median);
+    if (!os) throw std::runtime_error(res.features_csv + ": cannot write");
+  }
+  res.features_png = (fs::path(o.out_dir) / "scaling-features.png").string();
+  plotFeatureSweep(res.features_png, res.sweep, res.time_vs_features);
+  return res;
+}
+
+void printScaling(std::ostream& os, const ScalingResult& r) {
+  const std::size_t n = r.frames.size();
+  auto medianOf = [&](std::size_t from, std::size_t to) {
+    std::vector<double> v;
+    for (std::size_t i = std::max<std::size_t>(from, 1); i < to && i < n; ++i) v.push_back(r.frames[i].total_ms);
+    return percentiles(v).median;
+  };
+  const std::size_t tenth = std::max<std::size_t>(n / 10, 1);
+  const double dist = n ? r.frames.back().distance_m : 0.0;
+  os << "\nPer-frame time over the survey (issue 8: flat, no hidden O(n) in the map)\n";
+  os << fmt::format("{} frames, {:.0f} m: fit {:.3f} ms + {:+.4f} ms per 1000 frames (R^2 {:.3f}); median first tenth "
+                    "{:.2f} ms, last tenth {:.2f} ms\n",
+                    n, dist, r.time_vs_frame.intercept, r.time_vs_frame.slope * 1000.0, r.time_vs_frame.r2,
+                    medianOf(0, tenth), medianOf(n - tenth, n));
+  os << "\nPer-frame time against feature count (issue 8: roughly linear)\n";
+  os << fmt::format("{:>8}{:>8}{:>18}{:>20}{:>20}\n", "target", "frames", "features med/p99", "frame ms med/p99",
+                    "features ms med");
+  for (const auto& s : r.sweep)
+    os << fmt::format("{:>8}{:>8}{:>9.0f} /{:>6.0f}{:>11.2f} /{:>7.2f}{:>20.2f}\n", s.target, s.frames, s.features.median,
+                      s.features.p99, s.total_ms.median, s.total_ms.p99, s.features_ms.median);
+  os << fmt::format("fit: {:.3f} ms per 100 features + {:.2f} ms, R^2 {:.3f}\n", 100.0 * r.time_vs_features.slope,
+                    r.time_vs_features.intercept, r.time_vs_features.r2);
+  os << "plots: " << r.frames_png << ", " << r.features_png << "\ncsv: " << r.frames_csv << ", " << r.features_csv
+     << "\n";
 }
 
 }  // namespace seavio::tools

@@ -8,6 +8,8 @@
 #include <vector>
 
 #include "core/common/types.hpp"
+#include "core/eval/trajectory_metrics.hpp"
+#include "tools/run_stats.hpp"
 #include "tools/simulate/sim_config.hpp"
 
 namespace seavio::tools {
@@ -62,7 +64,9 @@ struct BenchRun {
   double map_mb_per_1000_frames = 0;  ///< FrameMap::memoryBytes per 1000 frames [MiB]
   int map_keyframes = 0;
   int revisit_corrections = 0;       ///< global: frames pulled onto older ground seen again
+  std::vector<MemorySample> rss;      ///< resident size every 1000 frames and at the end
   std::string plot_path;              ///< error-over-distance PNG ("" if none)
+  std::string frames_csv;             ///< per-frame times (see writeFrameTimesCsv)
 };
 
 /// Fills the timing columns of `run` from per-frame results.
@@ -95,6 +99,10 @@ struct PaperBenchOptions {
   int width_px = 0;          ///< 0 = the preset's 640 x 480
   int max_frames = 0;        ///< > 0: cut each scaled survey to this many frames (quick checks)
   std::string config;        ///< tuning YAML ("" = built-in defaults)
+  /// Folder holding already rendered full surveys DATA/paper-plain and DATA/paper-snow (as
+  /// `seavio simulate paper-plain --out DATA/paper-plain` makes them): used as they are, no
+  /// rendering; `scale` and `width_px` must then stay at their defaults.
+  std::string data_dir;
   std::vector<std::string> presets{"paper-plain", "paper-snow"};
   std::vector<std::string> variants{"local", "global"};
 };
@@ -121,6 +129,64 @@ struct StageBenchOptions {
 /// temporal matching, tensor RANSAC, ICP and whole frame from a global run (and ICP from a
 /// local run), and ICP against a synthetic model of `icp_model_points` points.
 std::vector<StageRow> runStageBench(const StageBenchOptions& options);
+
+/// Least-squares line y = intercept + slope x (r2: coefficient of determination).
+struct LineFit {
+  double intercept = 0, slope = 0, r2 = 0;
+  int n = 0;
+};
+/// Fit over the pairs (x[i], y[i]); n = 0 and zeros with fewer than two points or no spread in x.
+LineFit fitLine(const std::vector<double>& x, const std::vector<double>& y);
+
+/// One frame of a run, for the issue 8 scaling plots.
+struct FrameTimeRow {
+  int frame = 0;
+  double distance_m = 0;  ///< ground-truth path length up to this frame [m]
+  double total_ms = 0, features_ms = 0, icp_ms = 0;
+  int features = 0;       ///< left image
+  int model_points = 0;   ///< global ICP model size (0: no ICP against the map)
+};
+/// Rows of `results` with the distance along `gt` (sorted by time) at each frame's time.
+std::vector<FrameTimeRow> frameTimeRows(const std::vector<OdometryResult>& results,
+                                        const std::vector<eval::TimedPose>& gt);
+/// CSV with a header line; throws std::runtime_error naming `path` if it cannot be written.
+void writeFrameTimesCsv(const std::string& path, const std::vector<FrameTimeRow>& rows);
+/// Reads writeFrameTimesCsv's format; throws drivers::InputError naming the file and line.
+std::vector<FrameTimeRow> readFrameTimesCsv(const std::string& path);
+
+/// One point of the feature-count sweep.
+struct FeatureSweepRow {
+  int target = 0;         ///< the controller's target count per image
+  int frames = 0;
+  Percentiles features;   ///< left-image features per frame
+  Percentiles total_ms, features_ms;
+};
+
+/// `seavio bench scaling`: per-frame time against survey length and against feature count.
+struct ScalingBenchOptions {
+  std::string dataset;     ///< survey run in global mode for time vs distance
+  std::string frames_csv;  ///< or per-frame times of an earlier run (bench paper writes them)
+  int max_frames = 0;      ///< > 0: only the first N frames of `dataset`
+  std::vector<int> targets{250, 500, 1000, 1500, 2000};  ///< feature-count targets of the sweep
+  int sweep_frames = 150;  ///< frames of the short-plain sequence for the sweep (>= 20)
+  int width_px = 0;        ///< sweep image width, 0 = 640 x 480
+  uint32_t seed = 3;
+  std::string out_dir = "bench-scaling";
+  bool reuse = false;      ///< reuse the sweep sequence already rendered in out_dir
+  std::string config;
+};
+struct ScalingResult {
+  std::vector<FrameTimeRow> frames;
+  LineFit time_vs_frame;      ///< total_ms against frame index (slope: ms per frame)
+  LineFit time_vs_features;   ///< median total_ms against median feature count
+  std::vector<FeatureSweepRow> sweep;
+  std::string frames_png, features_png, frames_csv, features_csv;
+};
+/// Runs (or reads) the survey, runs the sweep in global mode, writes the CSVs and PNGs into
+/// out_dir. Throws std::invalid_argument naming the option for bad options.
+ScalingResult runScalingBench(const ScalingBenchOptions& options);
+/// The printed table: slope in ms per 1000 frames, first/last-tenth medians, and the sweep.
+void printScaling(std::ostream& os, const ScalingResult& result);
 
 /// VmRSS [kB] from the text of /proc/<pid>/status; nullopt if absent or malformed.
 std::optional<int64_t> parseVmRssKb(const std::string& proc_status_text);

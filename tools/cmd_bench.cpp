@@ -1,5 +1,6 @@
-// `seavio bench`: the paper's Tables I and II end to end (issue 5) and per-stage timing
-// against the issue 8 goals, in process.
+// `seavio bench`: the paper's Tables I and II end to end (issue 5), per-stage timing against
+// the issue 8 goals, and how the per-frame time scales with survey length and feature count,
+// in process.
 #include <fstream>
 #include <iostream>
 #include <memory>
@@ -17,6 +18,8 @@ namespace {
 struct BenchCliOptions {
   PaperBenchOptions paper;
   StageBenchOptions stages;
+  ScalingBenchOptions scaling;
+  int64_t scaling_seed = 3;
   int64_t paper_seed = 1;
   int64_t stage_seed = 3;
 };
@@ -54,6 +57,16 @@ void runStages(BenchCliOptions& o) {
   emit(os.str(), o.stages.out_dir + "/stages.txt");
 }
 
+void runScaling(BenchCliOptions& o) {
+  o.scaling.seed = checkedSeed(o.scaling_seed);
+  const ScalingResult r = runScalingBench(o.scaling);
+  std::ostringstream os;
+  os << "seavio bench scaling: " << (o.scaling.frames_csv.empty() ? o.scaling.dataset : o.scaling.frames_csv)
+     << "; sweep over " << o.scaling.sweep_frames << " frames of short-plain, seed " << o.scaling.seed << "\n";
+  printScaling(os, r);
+  emit(os.str(), o.scaling.out_dir + "/scaling.txt");
+}
+
 void guarded(const char* what, const std::function<void()>& fn) {
   try {
     fn();
@@ -77,6 +90,10 @@ const RegisterCommand kRegister("bench", [](CLI::App& app) {
   paper->add_option("--width", o->paper.width_px, "image width [px] (height 3/4 of it); default 640");
   paper->add_option("--max-frames", o->paper.max_frames, "cut each survey to N frames (quick checks)");
   paper->add_option("--config", o->paper.config, "tuning YAML (default: built-in defaults)");
+  paper->add_option("--data", o->paper.data_dir,
+                    "folder with full surveys already rendered as DIR/paper-plain and DIR/paper-snow: no rendering");
+  paper->add_option("--variants", o->paper.variants, "local and/or global (default both)")->delimiter(',');
+  paper->add_option("--presets", o->paper.presets, "paper-plain and/or paper-snow (default both)")->delimiter(',');
   paper->callback([o] { guarded("paper", [o] { runPaper(*o); }); });
 
   CLI::App* stages = cmd->add_subcommand("stages", "Time each stage over a short simulated sequence vs issue 8 goals");
@@ -89,6 +106,21 @@ const RegisterCommand kRegister("bench", [](CLI::App& app) {
   stages->add_option("--icp-repeats", o->stages.icp_repeats, "repetitions of the synthetic ICP");
   stages->add_option("--config", o->stages.config, "tuning YAML (default: built-in defaults)");
   stages->callback([o] { guarded("stages", [o] { runStages(*o); }); });
+
+  CLI::App* scaling = cmd->add_subcommand(
+      "scaling", "Per-frame time over a long survey (flat?) and against the feature count (linear?): PNG, CSV, table");
+  scaling->add_option("--dataset", o->scaling.dataset, "survey to run in global mode (e.g. a paper-plain rendering)");
+  scaling->add_option("--frames-csv", o->scaling.frames_csv,
+                      "or: per-frame times of an earlier run (bench paper writes OUT/global-plain-frames.csv)");
+  scaling->add_option("--max-frames", o->scaling.max_frames, "only the first N frames of --dataset");
+  scaling->add_option("--targets", o->scaling.targets, "feature-count targets of the sweep")->delimiter(',');
+  scaling->add_option("--sweep-frames", o->scaling.sweep_frames, "frames of the short-plain sequence for the sweep");
+  scaling->add_option("--seed", o->scaling_seed, "simulator seed of the sweep sequence");
+  scaling->add_option("--width", o->scaling.width_px, "sweep image width [px] (height 3/4 of it); default 640");
+  scaling->add_option("--out", o->scaling.out_dir, "folder for the sweep sequence, CSVs, plots and the table");
+  scaling->add_flag("--reuse", o->scaling.reuse, "reuse the sweep sequence already rendered in --out");
+  scaling->add_option("--config", o->scaling.config, "tuning YAML (default: built-in defaults)");
+  scaling->callback([o] { guarded("scaling", [o] { runScaling(*o); }); });
 });
 
 }  // namespace

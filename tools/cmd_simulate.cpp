@@ -22,6 +22,7 @@ struct SimulateOptions {
   std::string out;
   bool force = false;
   int frames = 0;
+  int width = 0;
   int64_t seed = -1;
   double imu_rate = 0, frame_rate = 0, altitude = 0, speed = 0, tilt_deg = 0;
   bool snow = false, unlimited_turn_rate = false, constant_depth = false, no_sway = false;
@@ -35,6 +36,17 @@ void runSimulate(const SimulateOptions& o, CLI::App& cmd) {
   if (cmd.count("--seed")) {
     if (o.seed < 0 || o.seed > 0xffffffffLL) throw std::invalid_argument("--seed: must be in [0, 4294967295]");
     c.seed = static_cast<uint32_t>(o.seed);
+  }
+  if (cmd.count("--width")) {
+    if (o.width < 64 || o.width > 4096 || o.width % 4 != 0)
+      throw std::invalid_argument("--width: must be a multiple of 4 in [64, 4096], got " + std::to_string(o.width));
+    // Same field of view: principal-point offsets and floor sampling scale with the image.
+    const double f = o.width / static_cast<double>(c.rig.width);
+    c.rig.width = o.width;
+    c.rig.height = o.width * 3 / 4;
+    c.rig.principal_offset0_px *= f;
+    c.rig.principal_offset1_px *= f;
+    c.seafloor.resolution_m = std::min(c.seafloor.resolution_m / f, 0.05);
   }
   if (cmd.count("--imu-rate")) c.imu.rate_hz = o.imu_rate;
   if (cmd.count("--frame-rate")) c.frame_rate_hz = o.frame_rate;
@@ -89,11 +101,12 @@ void runSimulate(const SimulateOptions& o, CLI::App& cmd) {
 const RegisterCommand kRegister{"simulate", [](CLI::App& app) {
   auto opts = std::make_shared<SimulateOptions>();
   CLI::App* cmd = app.add_subcommand("simulate", "Render a synthetic stereo-inertial AUV survey (EuRoC/ASL layout)");
-  cmd->add_option("preset", opts->preset, "paper-plain | paper-snow | short-plain | short-snow | short-outage")->required();
+  cmd->add_option("preset", opts->preset, "paper-plain | paper-snow | short-plain | short-snow | short-outage | revisit")->required();
   cmd->add_option("--out,-o", opts->out, "output dataset folder")->required();
   cmd->add_flag("--force", opts->force, "overwrite an existing dataset in the output folder");
   cmd->add_option("--frames", opts->frames, "number of stereo frames (cuts the preset)");
   cmd->add_option("--seed", opts->seed, "random seed (seafloor, snow, IMU noise)");
+  cmd->add_option("--width", opts->width, "image width [px], height 3/4 of it, same field of view (default 640)");
   cmd->add_option("--imu-rate", opts->imu_rate, "IMU rate [Hz], 100-400");
   cmd->add_option("--frame-rate", opts->frame_rate, "camera frame rate [Hz]");
   cmd->add_option("--altitude", opts->altitude, "altitude above the seafloor [m]");

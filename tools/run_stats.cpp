@@ -19,6 +19,27 @@ double RunStats::percentile(std::vector<double> v, double p) {
   return v[lo] + (v[hi] - v[lo]) * (idx - static_cast<double>(lo));
 }
 
+double rssGrowthPer1000Frames(const std::vector<MemorySample>& samples, std::size_t from_frames) {
+  double n = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (const MemorySample& m : samples) {
+    if (m.frames < from_frames) continue;
+    const double x = static_cast<double>(m.frames) / 1000.0;
+    n += 1, sx += x, sy += m.rss_mb, sxx += x * x, sxy += x * m.rss_mb;
+  }
+  const double den = n * sxx - sx * sx;
+  if (n < 2 || den <= 0) return 0.0;
+  return (n * sxy - sx * sy) / den;
+}
+
+void RunStats::printMemory(std::ostream& os) const {
+  if (memory_.empty()) return;
+  os << "RSS [MiB] after";
+  for (const MemorySample& m : memory_) os << fmt::format(" {}: {:.1f};", m.frames, m.rss_mb);
+  const std::size_t last = memory_.back().frames;
+  os << fmt::format("\nRSS growth over the second half (frames >= {}): {:.2f} MiB per 1000 frames\n", last / 2,
+                    rssGrowthPer1000Frames(memory_, last / 2));
+}
+
 namespace {
 
 struct Column {
@@ -79,7 +100,12 @@ void RunStats::writeJson(const std::string& path) const {
                                             percentile(v, 50), percentile(v, 99));
     first = false;
   }
-  os << "\n  },\n  \"frames\": [";
+  os << "\n  },\n  \"memory\": [";
+  for (std::size_t i = 0; i < memory_.size(); ++i)
+    os << (i ? "," : "") << fmt::format("\n    {{\"frames\": {}, \"rss_mb\": {:.2f}}}", memory_[i].frames, memory_[i].rss_mb);
+  os << fmt::format("\n  ],\n  \"rss_growth_mb_per_1000_frames_second_half\": {:.4f},",
+                    memory_.empty() ? 0.0 : rssGrowthPer1000Frames(memory_, memory_.back().frames / 2));
+  os << "\n  \"frames\": [";
   for (std::size_t i = 0; i < frames_.size(); ++i) {
     const auto& f = frames_[i];
     os << (i ? "," : "")

@@ -8,10 +8,25 @@
 
 namespace seavio::tools {
 
+/// Process resident size sampled during a run (issue 8's memory goal).
+struct MemorySample {
+  std::size_t frames = 0;  ///< frames processed when sampled
+  double rss_mb = 0;       ///< VmRSS [MiB]
+};
+
+/// Least-squares slope of resident size over the samples taken at or after `from_frames`
+/// [MiB per 1000 frames]; 0 with fewer than two such samples.
+double rssGrowthPer1000Frames(const std::vector<MemorySample>& samples, std::size_t from_frames);
+
 class RunStats {
  public:
   void add(const OdometryResult& r) { frames_.push_back(r); }
   std::size_t size() const { return frames_.size(); }
+  /// Records the resident size after `frames` frames.
+  void addMemorySample(std::size_t frames, double rss_mb) { memory_.push_back({frames, rss_mb}); }
+  const std::vector<MemorySample>& memorySamples() const { return memory_; }
+  /// "RSS after 1000 frames ... MiB; growth ..." line(s); nothing without samples.
+  void printMemory(std::ostream& os) const;
   /// Median and p99 per stage, with the paper's local-variant figures beside ours.
   void printTable(std::ostream& os) const;
   /// One JSON object per frame plus a summary.
@@ -21,6 +36,7 @@ class RunStats {
 
  private:
   std::vector<OdometryResult> frames_;
+  std::vector<MemorySample> memory_;
 };
 
 }  // namespace seavio::tools

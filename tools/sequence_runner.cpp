@@ -8,6 +8,8 @@
 #include <string>
 #include <utility>
 
+#include "daemon/odometry_processor.hpp"
+
 namespace seavio::tools {
 
 int64_t monotonicNowNs() {
@@ -16,14 +18,16 @@ int64_t monotonicNowNs() {
 }
 
 SequenceRun runSequence(const drivers::Dataset& ds, const odometry::OdometryParams& params, std::size_t max_frames,
-                        const FrameCallback& on_frame) {
+                        const FrameCallback& on_frame, std::size_t feature_threads) {
   if (ds.frames.empty()) throw drivers::InputError(ds.root + ": no stereo frames");
   std::string error;
   auto rectifier = camera::StereoRectifier::create(ds.calibration, &error);
   if (!rectifier) throw drivers::InputError(ds.root + ": calibration unusable: " + error);
   const std::size_t n = max_frames > 0 ? std::min(ds.frames.size(), max_frames) : ds.frames.size();
 
-  odometry::Odometry odo(std::move(*rectifier), ds.imu_noise, params, monotonicNowNs);
+  daemon::OdometryProcessor processor(odometry::Odometry(std::move(*rectifier), ds.imu_noise, params, monotonicNowNs),
+                                     feature_threads);
+  const odometry::Odometry& odo = processor.odometry();
   SequenceRun out;
   out.trajectory.reserve(n);
   out.results.reserve(n);
@@ -34,7 +38,7 @@ SequenceRun runSequence(const drivers::Dataset& ds, const odometry::OdometryPara
     while (imu_cursor < ds.imu.size() && ds.imu[imu_cursor].t_ns <= frame.t_ns) ++imu_cursor;
     const std::size_t end = std::min(ds.imu.size(), imu_cursor + 1);
     const std::span<const ImuSample> imu(ds.imu.data() + begin, end - begin);
-    OdometryResult r = odo.process(frame, imu);
+    OdometryResult r = processor.process(frame, imu);
     out.trajectory.push_back({r.t_ns, r.T_W_B});
     if (on_frame) on_frame(i, r);
     out.results.push_back(std::move(r));

@@ -31,10 +31,14 @@ int64_t monotonicNowNs();
 
 /// Runs the odometry over the first `max_frames` frames of `ds` (0 = all), handing each frame
 /// the IMU samples from the one before the previous frame to the first one after this frame
-/// (the odometry interpolates, it does not double-count). Deterministic for a given `params`.
+/// (the odometry interpolates, it does not double-count). Deterministic for a given `params`,
+/// and identical for any `feature_threads`: 1 extracts left and right features in turn, 2
+/// (default) the right image on a persistent worker while the left runs on the caller,
+/// through the daemon's OdometryProcessor (issue 8).
 /// Throws drivers::InputError naming the dataset if it has no frames or its calibration
 /// cannot be rectified, and whatever drivers::loadFrame throws for an unreadable image.
 SequenceRun runSequence(const drivers::Dataset& ds, const odometry::OdometryParams& params,
-                        std::size_t max_frames = 0, const FrameCallback& on_frame = {});
+                        std::size_t max_frames = 0, const FrameCallback& on_frame = {},
+                        std::size_t feature_threads = 2);
 
 }  // namespace seavio::tools

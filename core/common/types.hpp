@@ -63,6 +63,9 @@ struct Quality {
   double icp_rms_m = 0;
   int model_points = 0;
   double detector_threshold = 0;
+  /// Global mode: the map moved this pose (re-observation of an old keyframe or map ICP,
+  /// paper III-D/E); false for a frame-to-frame pose.
+  bool map_refined = false;
 };
 
 /// What `Odometry::process` returns for each stereo frame.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cfloat>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -9,6 +10,10 @@
 #include <stdexcept>
 
 #include "core/features/integral_image.hpp"
+
+#if defined(__SSE2__)
+#include <emmintrin.h>  // baseline on x86-64: no -march flag needed
+#endif
 
 namespace seavio::features {
 namespace {
@@ -23,7 +28,7 @@ constexpr float kDxyWeight = 0.9f;     // balances the box approximation (Bay 20
 /// A box sum S(a) - S(b) - S(c) + S(d) expressed as offsets from S(x, y) of the filter
 /// centre; unsigned arithmetic so a wrapped table still gives the exact sum.
 struct Box {
-  std::ptrdiff_t a, b, c, d;
+  std::ptrdiff_t a = 0, b = 0, c = 0, d = 0;
   /// Box of pixels with columns [x + dx0, x + dx1] and rows [y + dy0, y + dy1] (inclusive).
   static Box make(int dx0, int dy0, int dx1, int dy1, std::ptrdiff_t stride) {
     const std::ptrdiff_t c0 = dx0, c1 = dx1 + 1, r0 = dy0, r1 = dy1 + 1;
@@ -41,6 +46,7 @@ struct HessianFilter {
   float inv_lobe_area = 0;  // 1 / (l (2l - 1)): normalise by filter area (scale invariance)
   float inv_xy_area = 0;    // 1 / l^2
 
+  HessianFilter() = default;
   HessianFilter(int side, std::ptrdiff_t stride) : size(side) {
     const int l = size / 3;
     const int h = (size - 1) / 2;
@@ -90,8 +96,8 @@ inline void hessianRow(const HessianFilter& f, const uint32_t* base, std::ptrdif
 
 /// hessianRow for a lobe length L known at compile time: the box corners lie on ten table
 /// rows, so ten row pointers plus constant column offsets replace 32 runtime offsets (which
-/// do not fit in registers), and the unit-step loop vectorises without spilling. Same integer
-/// arithmetic (exact modulo 2^32) and float operations as hessianRow: bit-identical output.
+/// do not fit in registers). Serves the strided octaves; unit steps take hessianRowUnit. Same
+/// integer arithmetic (exact modulo 2^32) and float operations as hessianRow: bit-identical.
 template <int L, bool kUnitStep>
 void hessianRowFixed(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t stride,
                      std::ptrdiff_t step_arg, int n, float* out) {
@@ -127,14 +133,73 @@ void hessianRowFixed(const HessianFilter& f, const uint32_t* base, std::ptrdiff_
   }
 }
 
-/// det(H) along a grid row with the fastest kernel for the filter (see hessianRowFixed).
+/// hessianRowFixed at unit step with the row differences factored out: every box of a
+/// filter spans one of five row pairs (xx; yy outer; yy middle; xy upper; xy lower), so the
+/// difference of each pair is formed once per column in `scratch` and every box sum becomes
+/// two reads of it instead of four of the table (16 reads per response instead of 32). The
+/// same sums modulo 2^32 in a different association: bit-identical output.
+/// Unit steps only: at coarser steps forming the differences at every column costs more than
+/// the reads it saves. `scratch` holds at least 5 (n + 3 L) entries.
+template <int L>
+void hessianRowUnit(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t stride, int n, float* out,
+                    uint32_t* scratch) {
+  constexpr int H = (3 * L - 1) / 2, M = (L - 1) / 2;
+  const std::ptrdiff_t span = n + 2 * H + 1;  // columns -H .. n + H
+  uint32_t* e = scratch + H;       // xx rows
+  uint32_t* fo = e + span;         // yy outer rows
+  uint32_t* fm = fo + span;        // yy middle rows
+  uint32_t* d1 = fm + span;        // xy upper rows
+  uint32_t* d2 = d1 + span;        // xy lower rows
+  {
+    const uint32_t* xr0 = base - (L - 1) * stride - H;
+    const uint32_t* xr1 = base + L * stride - H;
+    const uint32_t* ya0 = base - H * stride - H;
+    const uint32_t* ya1 = base + (H + 1) * stride - H;
+    const uint32_t* ym0 = base - M * stride - H;
+    const uint32_t* ym1 = base + (M + 1) * stride - H;
+    const uint32_t* q0 = base - L * stride - H;
+    const uint32_t* q1 = base - H;
+    const uint32_t* q2 = base + stride - H;
+    const uint32_t* q3 = base + (L + 1) * stride - H;
+    uint32_t* e0 = e - H;
+    uint32_t* fo0 = fo - H;
+    uint32_t* fm0 = fm - H;
+    uint32_t* d10 = d1 - H;
+    uint32_t* d20 = d2 - H;
+    for (std::ptrdiff_t k = 0; k < span; ++k) e0[k] = xr1[k] - xr0[k];
+    for (std::ptrdiff_t k = 0; k < span; ++k) fo0[k] = ya1[k] - ya0[k];
+    for (std::ptrdiff_t k = 0; k < span; ++k) fm0[k] = ym1[k] - ym0[k];
+    for (std::ptrdiff_t k = 0; k < span; ++k) d10[k] = q1[k] - q0[k];
+    for (std::ptrdiff_t k = 0; k < span; ++k) d20[k] = q3[k] - q2[k];
+  }
+  const float wl = f.inv_lobe_area, wxy = f.inv_xy_area * kDxyWeight;
+  for (int c = 0; c < n; ++c) {
+    const uint32_t xx_all = e[c + H + 1] - e[c - H];
+    const uint32_t xx_mid = e[c + M + 1] - e[c - M];
+    const uint32_t yy_all = fo[c + L] - fo[c - (L - 1)];
+    const uint32_t yy_mid = fm[c + L] - fm[c - (L - 1)];
+    const uint32_t tl = d1[c] - d1[c - L];
+    const uint32_t tr = d1[c + L + 1] - d1[c + 1];
+    const uint32_t bl = d2[c] - d2[c - L];
+    const uint32_t br = d2[c + L + 1] - d2[c + 1];
+    const int32_t xx = static_cast<int32_t>(xx_all - 3u * xx_mid);
+    const int32_t yy = static_cast<int32_t>(yy_all - 3u * yy_mid);
+    const int32_t xy = static_cast<int32_t>(tl + br - tr - bl);
+    const float dxx = static_cast<float>(xx) * wl, dyy = static_cast<float>(yy) * wl;
+    const float dxy = static_cast<float>(xy) * wxy;
+    out[c] = dxx * dyy - dxy * dxy;
+  }
+}
+
+/// det(H) along a grid row with the fastest kernel for the filter (hessianRowUnit,
+/// hessianRowFixed).
 void hessianRowAny(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t stride,
-                   std::ptrdiff_t step, int n, float* out) {
+                   std::ptrdiff_t step, int n, float* out, uint32_t* scratch) {
   const int l = f.size / 3;
 #define SEAVIO_SURF_FIXED(LOBE)                                          \
   case LOBE:                                                             \
     if (step == 1) {                                                     \
-      hessianRowFixed<LOBE, true>(f, base, stride, 1, n, out);           \
+      hessianRowUnit<LOBE>(f, base, stride, n, out, scratch);            \
     } else {                                                             \
       hessianRowFixed<LOBE, false>(f, base, stride, step, n, out);       \
     }                                                                    \
@@ -207,6 +272,48 @@ inline void validRange(int size, int step, int extent, int& lo, int& hi) {
   hi = (extent - 1 - h) >= 0 ? (extent - 1 - h) / step : -1;
 }
 
+/// cv::fastAtan2 [deg, 0..360) inlined: OpenCV 4's polynomial (mathfuncs_core, atan_f32)
+/// with the same float operations in the same order, so the angle is bit-identical (checked
+/// on 2e7 random pairs) while the per-sample loop avoids a library call per gradient.
+inline float fastAtan2Deg(float y, float x) {
+  constexpr float kP1 = 0.9997878412794807f * static_cast<float>(180 / CV_PI);
+  constexpr float kP3 = -0.3258083974640975f * static_cast<float>(180 / CV_PI);
+  constexpr float kP5 = 0.1555786518463281f * static_cast<float>(180 / CV_PI);
+  constexpr float kP7 = -0.04432655554792128f * static_cast<float>(180 / CV_PI);
+  const float ax = std::abs(x), ay = std::abs(y);
+  float a;
+  if (ax >= ay) {
+    const float c = ay / (ax + static_cast<float>(DBL_EPSILON)), c2 = c * c;
+    a = (((kP7 * c2 + kP5) * c2 + kP3) * c2 + kP1) * c;
+  } else {
+    const float c = ax / (ay + static_cast<float>(DBL_EPSILON)), c2 = c * c;
+    a = 90.f - (((kP7 * c2 + kP5) * c2 + kP3) * c2 + kP1) * c;
+  }
+  if (x < 0) a = 180.f - a;
+  if (y < 0) a = 360.f - a;
+  return a;
+}
+
+/// Index of descriptor gradient (r, c) of the 20 x 20 window, stored so that the samples at
+/// the same place in the four 5 x 5 sub-regions of a band are adjacent (vectorised sums).
+constexpr int cellMajor(int r, int c) { return r * kPatch + (c % 5) * 4 + c / 5; }
+
+constexpr int kScanBlock = 16;
+
+/// True if any of the kScanBlock responses at `v` exceeds `threshold`.
+inline bool anyAbove(const float* v, float threshold) {
+#if defined(__SSE2__)
+  const __m128 t = _mm_set1_ps(threshold);
+  const __m128 a = _mm_or_ps(_mm_cmpgt_ps(_mm_loadu_ps(v), t), _mm_cmpgt_ps(_mm_loadu_ps(v + 4), t));
+  const __m128 b = _mm_or_ps(_mm_cmpgt_ps(_mm_loadu_ps(v + 8), t), _mm_cmpgt_ps(_mm_loadu_ps(v + 12), t));
+  return _mm_movemask_ps(_mm_or_ps(a, b)) != 0;
+#else
+  int any = 0;
+  for (int k = 0; k < kScanBlock; ++k) any |= v[k] > threshold;
+  return any != 0;
+#endif
+}
+
 /// Fits a 3D quadratic to the 3 x 3 x 3 neighbourhood (Brown and Lowe 2002, as Bay 2008,
 /// 3.3) and returns the offset of its extremum in grid units, or false if it leaves the cell.
 bool interpolate(const float n[3][9], cv::Vec3d& offset) {
@@ -237,6 +344,101 @@ inline float bilinear(const cv::Mat& img, float x, float y) {
   const int cy = std::clamp(static_cast<int>(std::lround(y)), 0, img.rows - 1);
   return img.at<uint8_t>(cy, cx);
 }
+
+/// Cell means at many sub-pixel positions, in passes the compiler vectorises (coordinates,
+/// blend) around one scalar pass of table reads: the same arithmetic as boxMeanInside and
+/// bilinear sample by sample, so the result is bit-identical to calling them one at a time.
+/// Sized for the largest grid sampled per keypoint (the descriptor's 21 x 21).
+struct CellSampler {
+  static constexpr int kMax = 21 * 21;
+  alignas(16) float px[kMax], py[kMax];   // cell centres [px] (inputs)
+  alignas(16) float ax[kMax], ay[kMax];   // fractional parts of the top-left corner
+  alignas(16) float b[kMax][4];  // the four integer placements (x, y), (x+1, y), (x, y+1), (x+1, y+1)
+  alignas(16) int xi[kMax], yi[kMax];     // integer parts of the top-left corner
+  alignas(16) int inside[kMax];           // 1 if the 2 x 2 placements lie inside the image
+
+  /// out[i] = mean grey level of the box x box cell centred at (px[i], py[i]); `fallback(px,
+  /// py)` for the samples near the border (cellMean's general path).
+  template <typename Fallback>
+  void sample(int n, int box, float inv_box2, const uint32_t* sum, std::ptrdiff_t stride, const cv::Mat& gray8,
+              float* out, Fallback&& fallback) {
+    const int width = gray8.cols, height = gray8.rows;
+    const float half = static_cast<float>(box - 1) * 0.5f;
+    // One unsigned comparison per axis: x in [0, x_last] (no sample is inside if x_last < 0).
+    const int x_last = width - box - 1, y_last = height - box - 1;
+    const unsigned ux_last = x_last >= 0 && y_last >= 0 ? static_cast<unsigned>(x_last) : 0u;
+    const unsigned uy_last = x_last >= 0 && y_last >= 0 ? static_cast<unsigned>(y_last) : 0u;
+    const int room = x_last >= 0 && y_last >= 0;
+    int n_out = 0;
+    for (int i = 0; i < n; ++i) {
+      const float fx = px[i] - half, fy = py[i] - half;
+      const int x = static_cast<int>(fx) - (static_cast<float>(static_cast<int>(fx)) > fx);
+      const int y = static_cast<int>(fy) - (static_cast<float>(static_cast<int>(fy)) > fy);
+      xi[i] = x;
+      yi[i] = y;
+      ax[i] = fx - static_cast<float>(x);
+      ay[i] = fy - static_cast<float>(y);
+      const int in = room & (static_cast<unsigned>(x) <= ux_last) & (static_cast<unsigned>(y) <= uy_last);
+      inside[i] = in;
+      n_out += 1 - in;
+    }
+    if (box > 1) {
+      const std::ptrdiff_t down = box * stride;
+      for (int i = 0; i < n; ++i) {
+        float* bi = b[i];
+        if (!inside[i]) {
+          bi[0] = bi[1] = bi[2] = bi[3] = 0.f;
+          continue;
+        }
+        const uint32_t* p = sum + static_cast<std::ptrdiff_t>(yi[i]) * stride + xi[i];
+        const uint32_t* q = p + stride;
+#if defined(__SSE2__)
+        // The four placements at once: horizontally adjacent table entries are one 64-bit read.
+        const auto pair = [](const uint32_t* a, const uint32_t* c) {
+          return _mm_unpacklo_epi64(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(a)),
+                                    _mm_loadl_epi64(reinterpret_cast<const __m128i*>(c)));
+        };
+        const __m128i tl = pair(p, q), tr = pair(p + box, q + box);
+        const __m128i bl = pair(p + down, q + down), br = pair(p + down + box, q + down + box);
+        const __m128i sums = _mm_add_epi32(_mm_sub_epi32(_mm_sub_epi32(br, tr), bl), tl);
+        _mm_storeu_ps(bi, _mm_cvtepi32_ps(sums));
+#else
+        bi[0] = static_cast<float>(static_cast<int32_t>(p[down + box] - p[box] - p[down] + p[0]));
+        bi[1] = static_cast<float>(static_cast<int32_t>(p[down + box + 1] - p[box + 1] - p[down + 1] + p[1]));
+        bi[2] = static_cast<float>(static_cast<int32_t>(q[down + box] - q[box] - q[down] + q[0]));
+        bi[3] = static_cast<float>(static_cast<int32_t>(q[down + box + 1] - q[box + 1] - q[down + 1] + q[1]));
+#endif
+      }
+      for (int i = 0; i < n; ++i) {
+        out[i] = ((1.f - ay[i]) * ((1.f - ax[i]) * b[i][0] + ax[i] * b[i][1]) +
+                  ay[i] * ((1.f - ax[i]) * b[i][2] + ax[i] * b[i][3])) *
+                 inv_box2;
+      }
+    } else {
+      const std::size_t step = gray8.step[0];
+      for (int i = 0; i < n; ++i) {
+        float* bi = b[i];
+        if (!inside[i]) {
+          bi[0] = bi[1] = bi[2] = bi[3] = 0.f;
+          continue;
+        }
+        const uint8_t* p = gray8.ptr<uint8_t>(yi[i]) + xi[i];
+        bi[0] = p[0];
+        bi[1] = p[1];
+        bi[2] = p[step];
+        bi[3] = p[step + 1];
+      }
+      for (int i = 0; i < n; ++i) {
+        out[i] = (1.f - ay[i]) * ((1.f - ax[i]) * b[i][0] + ax[i] * b[i][1]) +
+                 ay[i] * ((1.f - ax[i]) * b[i][2] + ax[i] * b[i][3]);
+      }
+    }
+    if (n_out == 0) return;
+    for (int i = 0; i < n; ++i) {
+      if (!inside[i]) out[i] = fallback(px[i], py[i]);
+    }
+  }
+};
 
 }  // namespace
 
@@ -293,6 +495,8 @@ void Surf::detect(const cv::Mat& gray8, double hessian_threshold,
 void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
                cv::Mat* descriptors) const {
   keypoints.clear();
+  // One allocation up front instead of a dozen regrowths (a caller reusing its vector pays none).
+  keypoints.reserve(1024);
   if (descriptors != nullptr) descriptors->create(0, descriptorSize(), CV_32F);
   if (gray8.empty()) return;
   if (gray8.type() != CV_8UC1) {
@@ -314,6 +518,8 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
   const int n_full = n_layers - 2;
   std::size_t plane_capacity = 0;
   std::unique_ptr<float[]> layers;  // uninitialised: only the valid ranges are written and read
+  // Row differences of hessianRowUnit: 5 (n + 3 L) entries, n <= width, L <= 49.
+  const std::unique_ptr<uint32_t[]> row_scratch(new uint32_t[5 * (static_cast<std::size_t>(width) + 3 * 49 + 8)]);
   for (int octave = 0; octave < params_.octaves; ++octave) {
     const int step = 1 << octave;
     const int rows = (height - 1) / step + 1, cols = (width - 1) / step + 1;
@@ -327,9 +533,8 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
       plane_capacity = plane * n_full;
       layers.reset(new float[plane_capacity]);
     }
-    std::vector<HessianFilter> filters;
-    filters.reserve(n_layers);
-    for (int layer = 0; layer < n_layers; ++layer) filters.emplace_back(filterSize(octave, layer), stride);
+    std::array<HessianFilter, 8 + 2> filters;  // octave_layers <= 8 (validate)
+    for (int layer = 0; layer < n_layers; ++layer) filters[layer] = HessianFilter(filterSize(octave, layer), stride);
     const auto centre = [&](int i, int j) {
       return sum + static_cast<std::ptrdiff_t>(i) * step * stride + static_cast<std::ptrdiff_t>(j) * step;
     };
@@ -342,7 +547,7 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
       for (int i = i0; i <= i1; ++i) {
         const uint32_t* base = centre(i, j0);
         float* out = det + static_cast<std::size_t>(i) * cols + j0;
-        hessianRowAny(filters[layer], base, stride, step, j1 - j0 + 1, out);
+        hessianRowAny(filters[layer], base, stride, step, j1 - j0 + 1, out, row_scratch.get());
       }
     }
 
@@ -359,47 +564,52 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
       const int ds = size - filters[layer - 1].size;
       for (int i = i0 + 1; i <= i1 - 1; ++i) {
         const float* row = here + static_cast<std::size_t>(i) * cols;
-        for (int j = j0 + 1; j <= j1 - 1; ++j) {
-          const float v = row[j];
-          if (!(v > threshold)) continue;
-          // Cheapest first: the 8 neighbours in this layer (rows above and below in memory).
-          const float* up = row - cols;
-          const float* dn = row + cols;
-          if (!(v > up[j - 1] && v > up[j] && v > up[j + 1] && v > row[j - 1] && v > row[j + 1] &&
-                v > dn[j - 1] && v > dn[j] && v > dn[j + 1]))
-            continue;
-          float n[3][9];
-          bool is_max = true;
-          for (int p : {0, 2}) {  // full neighbour layers before the ones computed on demand
-            if (full[p] == nullptr) continue;
-            const float* q = full[p] + static_cast<std::size_t>(i) * cols + j;
-            for (int k = 0; k < 9 && is_max; ++k) {
-              n[p][k] = q[(k / 3 - 1) * static_cast<std::ptrdiff_t>(cols) + (k % 3 - 1)];
-              is_max = v > n[p][k];
+        for (int jb = j0 + 1; jb <= j1 - 1; jb += kScanBlock) {
+          const int je = std::min(jb + kScanBlock, j1);  // exclusive
+          // Nearly every response is below the threshold: one vectorised test per block.
+          if (je - jb == kScanBlock && !anyAbove(row + jb, threshold)) continue;
+          for (int j = jb; j < je; ++j) {
+            const float v = row[j];
+            if (!(v > threshold)) continue;
+            // Cheapest first: the 8 neighbours in this layer (rows above and below in memory).
+            const float* up = row - cols;
+            const float* dn = row + cols;
+            if (!(v > up[j - 1] && v > up[j] && v > up[j + 1] && v > row[j - 1] && v > row[j + 1] &&
+                  v > dn[j - 1] && v > dn[j] && v > dn[j + 1]))
+              continue;
+            float n[3][9];
+            bool is_max = true;
+            for (int p : {0, 2}) {  // full neighbour layers before the ones computed on demand
+              if (full[p] == nullptr) continue;
+              const float* q = full[p] + static_cast<std::size_t>(i) * cols + j;
+              for (int k = 0; k < 9 && is_max; ++k) {
+                n[p][k] = q[(k / 3 - 1) * static_cast<std::ptrdiff_t>(cols) + (k % 3 - 1)];
+                is_max = v > n[p][k];
+              }
             }
-          }
-          for (int p : {0, 2}) {
-            if (!is_max || full[p] != nullptr) continue;
-            const HessianFilter& f = filters[layer - 1 + p];
-            for (int k = 0; k < 9 && is_max; ++k) {
-              n[p][k] = hessianAt(f, centre(i + k / 3 - 1, j + k % 3 - 1));
-              is_max = v > n[p][k];
+            for (int p : {0, 2}) {
+              if (!is_max || full[p] != nullptr) continue;
+              const HessianFilter& f = filters[layer - 1 + p];
+              for (int k = 0; k < 9 && is_max; ++k) {
+                n[p][k] = hessianAt(f, centre(i + k / 3 - 1, j + k % 3 - 1));
+                is_max = v > n[p][k];
+              }
             }
+            if (!is_max) continue;
+            for (int k = 0; k < 9; ++k) n[1][k] = row[(k / 3 - 1) * static_cast<std::ptrdiff_t>(cols) + j + (k % 3 - 1)];
+            cv::Vec3d offset;
+            if (!interpolate(n, offset)) continue;
+            const float trace = filters[layer].dxx(centre(i, j)) + filters[layer].dyy(centre(i, j));
+            cv::KeyPoint kp;
+            kp.pt.x = static_cast<float>((j + offset[0]) * step);
+            kp.pt.y = static_cast<float>((i + offset[1]) * step);
+            kp.size = static_cast<float>(size + offset[2] * ds);
+            kp.response = v;
+            kp.octave = octave;
+            kp.class_id = (trace > 0.f) - (trace < 0.f);
+            kp.angle = 0.f;
+            if (kp.size > 0.f) keypoints.push_back(kp);
           }
-          if (!is_max) continue;
-          for (int k = 0; k < 9; ++k) n[1][k] = row[(k / 3 - 1) * static_cast<std::ptrdiff_t>(cols) + j + (k % 3 - 1)];
-          cv::Vec3d offset;
-          if (!interpolate(n, offset)) continue;
-          const float trace = filters[layer].dxx(centre(i, j)) + filters[layer].dyy(centre(i, j));
-          cv::KeyPoint kp;
-          kp.pt.x = static_cast<float>((j + offset[0]) * step);
-          kp.pt.y = static_cast<float>((i + offset[1]) * step);
-          kp.size = static_cast<float>(size + offset[2] * ds);
-          kp.response = v;
-          kp.octave = octave;
-          kp.class_id = (trace > 0.f) - (trace < 0.f);
-          kp.angle = 0.f;
-          if (kp.size > 0.f) keypoints.push_back(kp);
         }
       }
     }
@@ -442,20 +652,7 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
     }
     return bilinear(gray8, px, py);
   };
-  // True if every cell of side `box` centred within `radius` [px] of `c` passes cellMean's
-  // inside test (one pixel of slack for rounding): the loops then call boxMeanInside directly,
-  // with the same arithmetic as cellMean, so hoisting the test changes no output bit.
-  const auto allInside = [&](const cv::Point2f& c, float radius, int box) {
-    if (box <= 1) return false;
-    const float lo = radius + (box - 1) * 0.5f + 1.f, hi = radius - (box - 1) * 0.5f + box + 2.f;
-    return c.x - lo >= 0.f && c.y - lo >= 0.f && c.x + hi <= static_cast<float>(width) &&
-           c.y + hi <= static_cast<float>(height);
-  };
-  const auto fastMean = [&](float px, float py, int box, float inv_box2) {
-    const float fx = px - (box - 1) * 0.5f, fy = py - (box - 1) * 0.5f;
-    const int x = floorInt(fx), y = floorInt(fy);
-    return boxMeanInside(sum, stride, x, y, fx - static_cast<float>(x), fy - static_cast<float>(y), box, inv_box2);
-  };
+  CellSampler sampler;
   std::size_t kept = 0;
   for (std::size_t k = 0; k < keypoints.size(); ++k) {
     cv::KeyPoint kp = keypoints[k];
@@ -473,15 +670,14 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
       std::array<float, kGW * kGW> grid;
       const int obox = std::max(1, static_cast<int>(std::lround(3.f * s)));  // smoothing box [px]
       const float inv_obox2 = 1.f / static_cast<float>(obox * obox);
-      if (allInside(kp.pt, kG * s * 1.001f, obox)) {
-        for (int v = -kG; v <= kG; ++v)
-          for (int u = -kG; u <= kG; ++u)
-            grid[(v + kG) * kGW + (u + kG)] = fastMean(kp.pt.x + u * s, kp.pt.y + v * s, obox, inv_obox2);
-      } else {
-        for (int v = -kG; v <= kG; ++v)
-          for (int u = -kG; u <= kG; ++u)
-            grid[(v + kG) * kGW + (u + kG)] = cellMean(kp.pt.x + u * s, kp.pt.y + v * s, obox, inv_obox2);
+      for (int v = -kG; v <= kG; ++v) {
+        for (int u = -kG; u <= kG; ++u) {
+          sampler.px[(v + kG) * kGW + (u + kG)] = kp.pt.x + u * s;
+          sampler.py[(v + kG) * kGW + (u + kG)] = kp.pt.y + v * s;
+        }
       }
+      sampler.sample(kGW * kGW, obox, inv_obox2, sum, stride, gray8, grid.data(),
+                     [&](float x, float y) { return cellMean(x, y, obox, inv_obox2); });
       std::size_t n = 0;
       for (std::size_t q = 0; q < ori_offsets_.size(); ++q) {
         const float* g = grid.data() + (ori_offsets_[q].y + kG) * kGW + (ori_offsets_[q].x + kG);
@@ -491,7 +687,7 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
                          3.f * (g[2 * kGW + 2] - g[-2 * kGW + 2]);
         gx[n] = hx * ori_weights_[q];
         gy[n] = hy * ori_weights_[q];
-        ang[n] = cv::fastAtan2(gy[n], gx[n]);
+        ang[n] = fastAtan2Deg(gy[n], gx[n]);
         ++n;
       }
       if (n == 0) continue;
@@ -523,7 +719,7 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
         wx += bin_x[start + kOriWindowDeg] - bin_x[start];
         wy += bin_y[start + kOriWindowDeg] - bin_y[start];
       }
-      angle_deg = cv::fastAtan2(best_y, best_x);
+      angle_deg = fastAtan2Deg(best_y, best_x);
       if (angle_deg >= 360.f) angle_deg -= 360.f;
     }
     kp.angle = angle_deg;
@@ -538,40 +734,37 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
       const float cs = std::cos(rad), sn = std::sin(rad);
       const int box = static_cast<int>(std::lround(s));
       const float inv_box2 = 1.f / static_cast<float>(box * box);
-      const auto sample = [&](auto&& mean) {
-        for (int r = 0; r <= kPatch; ++r) {
-          const float dv = (static_cast<float>(r) - kPatch / 2.f) * s;
-          for (int c = 0; c <= kPatch; ++c) {
-            const float du = (static_cast<float>(c) - kPatch / 2.f) * s;
-            const float px = kp.pt.x + du * cs - dv * sn;
-            const float py = kp.pt.y + du * sn + dv * cs;
-            patch[r * (kPatch + 1) + c] = mean(px, py, box, inv_box2);
-          }
+      for (int r = 0; r <= kPatch; ++r) {
+        const float dv = (static_cast<float>(r) - kPatch / 2.f) * s;
+        for (int c = 0; c <= kPatch; ++c) {
+          const float du = (static_cast<float>(c) - kPatch / 2.f) * s;
+          sampler.px[r * (kPatch + 1) + c] = kp.pt.x + du * cs - dv * sn;
+          sampler.py[r * (kPatch + 1) + c] = kp.pt.y + du * sn + dv * cs;
         }
-      };
-      if (allInside(kp.pt, kPatch / 2.f * s * (std::abs(cs) + std::abs(sn)) * 1.001f, box)) {
-        sample(fastMean);
-      } else {
-        sample(cellMean);
       }
+      sampler.sample((kPatch + 1) * (kPatch + 1), box, inv_box2, sum, stride, gray8, patch.data(),
+                     [&](float x, float y) { return cellMean(x, y, box, inv_box2); });
       for (int r = 0; r < kPatch; ++r) {
         const float* p0 = patch.data() + r * (kPatch + 1);
         const float* p1 = p0 + (kPatch + 1);
-        for (int c = 0; c < kPatch; ++c) {
-          const float w = desc_weights_[r * kPatch + c];
-          pdx[r * kPatch + c] = (p0[c + 1] - p0[c] + p1[c + 1] - p1[c]) * w;
-          pdy[r * kPatch + c] = (p1[c] - p0[c] + p1[c + 1] - p0[c + 1]) * w;
+        for (int cj = 0; cj < 4; ++cj) {
+          for (int c5 = 0; c5 < 5; ++c5) {
+            const int c = cj * 5 + c5;
+            const float w = desc_weights_[r * kPatch + c];
+            pdx[r * kPatch + c5 * 4 + cj] = (p0[c + 1] - p0[c] + p1[c + 1] - p1[c]) * w;
+            pdy[r * kPatch + c5 * 4 + cj] = (p1[c] - p0[c] + p1[c + 1] - p0[c + 1]) * w;
+          }
         }
       }
       float* vec = desc.ptr<float>(static_cast<int>(kept));
-      std::fill(vec, vec + dsize, 0.f);
-      float* cell = vec;
-      for (int ci = 0; ci < 4; ++ci) {
-        for (int cj = 0; cj < 4; ++cj) {
-          for (int r = ci * 5; r < ci * 5 + 5; ++r) {
-            for (int c = cj * 5; c < cj * 5 + 5; ++c) {
-              const float tx = pdx[r * kPatch + c], ty = pdy[r * kPatch + c];
-              if (params_.extended) {
+      if (params_.extended) {
+        std::fill(vec, vec + dsize, 0.f);
+        float* cell = vec;
+        for (int ci = 0; ci < 4; ++ci) {
+          for (int cj = 0; cj < 4; ++cj) {
+            for (int r = ci * 5; r < ci * 5 + 5; ++r) {
+              for (int c = cj * 5; c < cj * 5 + 5; ++c) {
+                const float tx = pdx[cellMajor(r, c)], ty = pdy[cellMajor(r, c)];
                 // Sums split by the sign of the other component (Bay 2008, 4.2, SURF-128).
                 const int oy = ty >= 0.f ? 0 : 2;
                 cell[oy] += tx;
@@ -579,15 +772,35 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
                 const int ox = tx >= 0.f ? 4 : 6;
                 cell[ox] += ty;
                 cell[ox + 1] += std::abs(ty);
-              } else {
-                cell[0] += tx;
-                cell[1] += ty;
-                cell[2] += std::abs(tx);
-                cell[3] += std::abs(ty);
+              }
+            }
+            cell += 8;
+          }
+        }
+      } else {
+        // The four sub-regions of a band side by side (cellMajor), each summed in the order
+        // r, c of the plain loop: the same sums, four at a time.
+        for (int ci = 0; ci < 4; ++ci) {
+          std::array<float, 4> sx{}, sy{}, sax{}, say{};
+          for (int r = ci * 5; r < ci * 5 + 5; ++r) {
+            for (int c5 = 0; c5 < 5; ++c5) {
+              const float* tx = pdx.data() + cellMajor(r, c5);
+              const float* ty = pdy.data() + cellMajor(r, c5);
+              for (int cj = 0; cj < 4; ++cj) {
+                sx[cj] += tx[cj];
+                sy[cj] += ty[cj];
+                sax[cj] += std::abs(tx[cj]);
+                say[cj] += std::abs(ty[cj]);
               }
             }
           }
-          cell += params_.extended ? 8 : 4;
+          for (int cj = 0; cj < 4; ++cj) {
+            float* cell = vec + (ci * 4 + cj) * 4;
+            cell[0] = sx[cj];
+            cell[1] = sy[cj];
+            cell[2] = sax[cj];
+            cell[3] = say[cj];
+          }
         }
       }
       // Unit length: invariance to contrast.

@@ -2,9 +2,38 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <unordered_set>
 
 namespace seavio::map {
+
+namespace {
+
+/// Heap bookkeeping per allocation (glibc malloc chunk header, rounded): memoryBytes counts it
+/// so the figure tracks the resident size rather than the payload alone.
+constexpr std::size_t kAllocOverhead = 16;
+
+}  // namespace
+
+bool packPoint(const Eigen::Vector3f& p, PackedPoint& out) {
+  constexpr float kMax = static_cast<float>(std::numeric_limits<int16_t>::max());
+  int16_t v[3];
+  for (int k = 0; k < 3; ++k) {
+    const float mm = std::round(p[k] * 1000.0f);
+    if (!std::isfinite(mm) || std::abs(mm) > kMax) return false;
+    v[k] = static_cast<int16_t>(mm);
+  }
+  out = PackedPoint{v[0], v[1], v[2]};
+  return true;
+}
+
+std::vector<Eigen::Vector3f> MapFrame::points() const {
+  if (packed_R0.empty()) return points_R0;
+  std::vector<Eigen::Vector3f> out;
+  out.reserve(packed_R0.size());
+  for (const PackedPoint& q : packed_R0) out.push_back(unpackPoint(q));
+  return out;
+}
 
 FrameMap::FrameMap(const FrameMapParams& params) : params_(params) {}
 
@@ -20,33 +49,11 @@ FrameMap::CellKey FrameMap::keyOf(const Eigen::Vector3d& p) const {
                static_cast<int64_t>(std::floor(p.z() / c)));
 }
 
-bool FrameMap::wantsKeyframe(const Eigen::Isometry3d& T_W_R0) const {
-  if (frames_.empty()) return true;
-  const Eigen::Isometry3d& last = frames_.back().T_W_R0;
-  const double d = (T_W_R0.translation() - last.translation()).norm();
-  const double a = Eigen::AngleAxisd(last.rotation().transpose() * T_W_R0.rotation()).angle();
-  return d >= params_.keyframe_distance_m || a >= params_.keyframe_angle_rad;
-}
-
-void FrameMap::insert(MapFrame frame) {
-  const std::size_t cap = static_cast<std::size_t>(std::max(params_.max_points_per_frame, 1));
-  if (frame.points_R0.size() > cap) {
-    std::vector<Eigen::Vector3f> kept;
-    kept.reserve(cap);
-    const double step = static_cast<double>(frame.points_R0.size()) / static_cast<double>(cap);
-    for (std::size_t i = 0; i < cap; ++i) kept.push_back(frame.points_R0[static_cast<std::size_t>(i * step)]);
-    frame.points_R0 = std::move(kept);
-  }
-  frame.points_R0.shrink_to_fit();
-  point_count_ += frame.points_R0.size();
-  grid_[keyOf(frame.T_W_R0.translation())].push_back(static_cast<uint32_t>(frames_.size()));
-  frames_.push_back(std::move(frame));
-}
-
-std::vector<const MapFrame*> FrameMap::selectNear(const Eigen::Vector3d& position_W) const {
-  std::vector<std::pair<double, const MapFrame*>> found;
+template <typename Fn>
+void FrameMap::forEachNearby(const Eigen::Vector3d& position_W, Fn&& fn) const {
+  // Cells are one selection radius wide, so the 27 around the query hold every keyframe
+  // within that radius (and within any smaller one, such as the overlap radius).
   const double c = std::max(params_.selection_radius_m, 0.1);
-  const double r2 = params_.selection_radius_m * params_.selection_radius_m;
   const int64_t cx = static_cast<int64_t>(std::floor(position_W.x() / c));
   const int64_t cy = static_cast<int64_t>(std::floor(position_W.y() / c));
   const int64_t cz = static_cast<int64_t>(std::floor(position_W.z() / c));
@@ -55,12 +62,68 @@ std::vector<const MapFrame*> FrameMap::selectNear(const Eigen::Vector3d& positio
       for (int64_t dz = -1; dz <= 1; ++dz) {
         const auto it = grid_.find(keyOf(cx + dx, cy + dy, cz + dz));
         if (it == grid_.end()) continue;
-        for (uint32_t idx : it->second) {
-          const MapFrame& f = frames_[idx];
-          const double d2 = (f.T_W_R0.translation() - position_W).squaredNorm();
-          if (d2 <= r2) found.emplace_back(d2, &f);
-        }
+        for (uint32_t idx : it->second) fn(idx);
       }
+}
+
+const MapFrame* FrameMap::coveringKeyframe(const Eigen::Isometry3d& T_W_R0) const {
+  const double r = std::min(params_.overlap_radius_m, std::max(params_.selection_radius_m, 0.1));
+  if (!(r > 0.0) || frames_.empty()) return nullptr;
+  const Eigen::Vector3d p = T_W_R0.translation();
+  // Optical axes: a rotation about the axis of a (near) nadir camera keeps the same patch of
+  // floor in view, so only the axis direction decides coverage, not the heading.
+  const Eigen::Vector3d axis = T_W_R0.linear().col(2);
+  const double min_cos = std::cos(params_.keyframe_angle_rad);
+  const MapFrame* best = nullptr;
+  double best_d2 = r * r;
+  forEachNearby(p, [&](uint32_t idx) {
+    const MapFrame& f = frames_[idx];
+    const double d2 = (f.T_W_R0.translation() - p).squaredNorm();
+    if (d2 > best_d2 || (d2 == best_d2 && best != nullptr)) return;
+    if (f.T_W_R0.linear().col(2).dot(axis) < min_cos) return;
+    best = &f;
+    best_d2 = d2;
+  });
+  return best;
+}
+
+bool FrameMap::wantsKeyframe(const Eigen::Isometry3d& T_W_R0) const {
+  if (frames_.empty()) return true;
+  const Eigen::Isometry3d& last = frames_.back().T_W_R0;
+  const double d = (T_W_R0.translation() - last.translation()).norm();
+  const double a = Eigen::AngleAxisd(last.rotation().transpose() * T_W_R0.rotation()).angle();
+  if (d < params_.keyframe_distance_m && a < params_.keyframe_angle_rad) return false;
+  return coveringKeyframe(T_W_R0) == nullptr;
+}
+
+void FrameMap::insert(MapFrame frame) {
+  const std::size_t cap = static_cast<std::size_t>(std::max(params_.max_points_per_frame, 1));
+  if (frame.packed_R0.empty()) {
+    frame.packed_R0.reserve(std::min(cap, frame.points_R0.size()));
+    PackedPoint q;
+    for (const Eigen::Vector3f& p : frame.points_R0) {
+      if (frame.packed_R0.size() >= cap) break;
+      if (packPoint(p, q)) frame.packed_R0.push_back(q);
+    }
+  } else if (frame.packed_R0.size() > cap) {
+    frame.packed_R0.resize(cap);
+  }
+  // Release the float input: the packed copy is the stored form.
+  std::vector<Eigen::Vector3f>().swap(frame.points_R0);
+  frame.packed_R0.shrink_to_fit();
+  point_count_ += frame.packed_R0.size();
+  grid_[keyOf(frame.T_W_R0.translation())].push_back(static_cast<uint32_t>(frames_.size()));
+  frames_.push_back(std::move(frame));
+}
+
+std::vector<const MapFrame*> FrameMap::selectNear(const Eigen::Vector3d& position_W) const {
+  std::vector<std::pair<double, const MapFrame*>> found;
+  const double r2 = params_.selection_radius_m * params_.selection_radius_m;
+  forEachNearby(position_W, [&](uint32_t idx) {
+    const MapFrame& f = frames_[idx];
+    const double d2 = (f.T_W_R0.translation() - position_W).squaredNorm();
+    if (d2 <= r2) found.emplace_back(d2, &f);
+  });
   std::sort(found.begin(), found.end(), [](const auto& a, const auto& b) {
     return a.first < b.first || (a.first == b.first && a.second->id < b.second->id);
   });
@@ -76,14 +139,19 @@ ModelCloud FrameMap::buildModel(const std::vector<const MapFrame*>& frames) cons
   ModelCloud model;
   std::unordered_set<int64_t> occupied;
   const double v = std::max(params_.voxel_size_m, 1e-4);
+  const auto add = [&](const Eigen::Vector3f& pw) {
+    const int64_t key = keyOf(static_cast<int64_t>(std::floor(pw.x() / v)), static_cast<int64_t>(std::floor(pw.y() / v)),
+                              static_cast<int64_t>(std::floor(pw.z() / v)));
+    if (occupied.insert(key).second) model.points_W.push_back(pw);
+  };
   for (const MapFrame* f : frames) {
     model.frame_ids.push_back(f->id);
     const Eigen::Isometry3f T = f->T_W_R0.cast<float>();
-    for (const Eigen::Vector3f& p : f->points_R0) {
-      const Eigen::Vector3f pw = T * p;
-      const int64_t key = keyOf(static_cast<int64_t>(std::floor(pw.x() / v)), static_cast<int64_t>(std::floor(pw.y() / v)),
-                                static_cast<int64_t>(std::floor(pw.z() / v)));
-      if (occupied.insert(key).second) model.points_W.push_back(pw);
+    // Frames from this map hold packed points; a caller's own frame may still hold floats.
+    if (!f->packed_R0.empty()) {
+      for (const PackedPoint& q : f->packed_R0) add(T * unpackPoint(q));
+    } else {
+      for (const Eigen::Vector3f& p : f->points_R0) add(T * p);
     }
   }
   return model;
@@ -91,10 +159,22 @@ ModelCloud FrameMap::buildModel(const std::vector<const MapFrame*>& frames) cons
 
 std::size_t FrameMap::memoryBytes() const {
   std::size_t bytes = frames_.capacity() * sizeof(MapFrame);
-  for (const MapFrame& f : frames_) bytes += f.points_R0.capacity() * sizeof(Eigen::Vector3f);
-  bytes += grid_.size() * (sizeof(CellKey) + sizeof(std::vector<uint32_t>) + 16);
-  bytes += frames_.size() * sizeof(uint32_t);
+  for (const MapFrame& f : frames_) {
+    if (f.packed_R0.capacity() > 0) bytes += f.packed_R0.capacity() * sizeof(PackedPoint) + kAllocOverhead;
+    if (f.points_R0.capacity() > 0) bytes += f.points_R0.capacity() * sizeof(Eigen::Vector3f) + kAllocOverhead;
+  }
+  for (const auto& [key, indices] : grid_)
+    bytes += sizeof(key) + sizeof(indices) + 2 * sizeof(void*) + kAllocOverhead +  // hash node + bucket
+             indices.capacity() * sizeof(uint32_t) + kAllocOverhead;
   return bytes;
+}
+
+std::size_t FrameMap::maxBytesPerKeyframe() const {
+  const std::size_t cap = static_cast<std::size_t>(std::max(params_.max_points_per_frame, 1));
+  // Vector growth at most doubles the frame array and a cell's index list; at worst every
+  // keyframe opens a cell of its own.
+  return 2 * sizeof(MapFrame) + cap * sizeof(PackedPoint) + kAllocOverhead + 2 * sizeof(uint32_t) +
+         sizeof(CellKey) + sizeof(std::vector<uint32_t>) + 2 * sizeof(void*) + 2 * kAllocOverhead;
 }
 
 }  // namespace seavio::map

@@ -1,11 +1,12 @@
 #pragma once
 /// The per-frame pipeline of the paper (Fig. 2): IMU dead reckoning -> features -> IMU-pruned
 /// inter-frame matching -> quadrifocal-tensor RANSAC -> ICP -> pose. Deterministic and
-/// single-threaded; the daemon may run `Frontend` on its worker pool and call `track`.
+/// single-threaded; the daemon may run `Frontend` on its worker pool and call `track`, and may
+/// run the global step (GlobalRefiner) on its own thread through the deferred mode.
+#include <memory>
 #include <optional>
 #include <random>
 #include <span>
-#include <unordered_map>
 
 #include "core/camera/stereo_rectifier.hpp"
 #include "core/common/types.hpp"
@@ -15,6 +16,7 @@
 #include "core/imu/imu_integrator.hpp"
 #include "core/map/frame_map.hpp"
 #include "core/odometry/frontend.hpp"
+#include "core/odometry/global_refiner.hpp"
 #include "core/odometry/motion_refinement.hpp"
 
 namespace seavio::odometry {
@@ -32,6 +34,24 @@ enum class FinalStage { kIcp, kTensor };
 enum class Prediction {
   kImu,               ///< IMU dead reckoning from the last visual state (the paper's)
   kConstantVelocity,  ///< vision only: the last visual motion repeated, the IMU ignored (for comparison)
+};
+
+/// Global mode only: where the global step (revisit re-observation, ICP against the map,
+/// keyframe insertion; GlobalRefiner) runs.
+enum class GlobalDelivery {
+  kInline,    ///< inside track(), before the pose is final (offline runs: deterministic)
+  kDeferred,  ///< elsewhere, later: track() leaves a GlobalRequest, applyGlobalCorrection() takes the answer
+};
+
+/// Carries deferred global requests to a refiner elsewhere (e.g. the daemon's ICP thread) and
+/// its corrections back. Called only from the thread that calls Odometry::track.
+class GlobalLink {
+ public:
+  virtual ~GlobalLink() = default;
+  /// Takes this frame's request; must not block (a full queue skips it and counts).
+  virtual void submit(GlobalRequest&& request) = 0;
+  /// Next correction that came back, if any (false: none waiting). Must not block.
+  virtual bool poll(GlobalCorrection& out) = 0;
 };
 
 struct OdometryParams {
@@ -56,6 +76,17 @@ struct OdometryParams {
   /// prior, few inliers suffice). 0 disables.
   double rescue_inlier_threshold_px = 2.5;
   int rescue_min_inliers = 8;
+  /// Keyframe tracking (local path): the frame is matched against the last keyframe rather
+  /// than the previous frame while they still overlap, so the random part of the per-frame
+  /// errors (mostly rotation: the gyro's noise, which the prior passes on) adds up once per
+  /// keyframe instead of once per frame. At 10 Hz and 1 m/s a keyframe serves ~10 frames; at
+  /// 1 Hz, 1.5 m apart, every frame is a keyframe and nothing changes. Off = frame to frame.
+  bool keyframe_tracking = true;
+  /// A new keyframe when the current frame is this far from the last one [m]...
+  double keyframe_max_distance_m = 1.2;
+  /// ...or its inliers fall below this fraction of those of the first frame tracked against it...
+  double keyframe_min_inlier_ratio = 0.5;
+  int keyframe_min_inliers = 40;  ///< ...or below this count
   double initial_velocity_sigma_m_s = 1.0;   ///< unknown start velocity [m/s]
   double velocity_sigma_m_s = 0.05;          ///< after a visual fix [m/s]
   double attitude_sigma_rad = 0.005;         ///< after a visual fix [rad]
@@ -73,7 +104,14 @@ struct OdometryParams {
   int revisit_min_inliers = 25;              ///< RANSAC inliers against the old frame to trust it
   double max_revisit_correction_m = 1.5;     ///< larger jumps back onto old ground are refused [m]
   uint32_t seed = 1;                         ///< RANSAC random stream
+  GlobalDelivery global_delivery = GlobalDelivery::kInline;
+  /// Deferred global step through this link: track() first applies every correction the
+  /// link returns, then submits its own request. Implies GlobalDelivery::kDeferred.
+  std::shared_ptr<GlobalLink> global_link;
 };
+
+/// The global-map part of `p`, for a GlobalRefiner run outside the Odometry.
+GlobalRefinerParams globalRefinerParams(const OdometryParams& p);
 
 class Odometry {
  public:
@@ -84,14 +122,31 @@ class Odometry {
   /// before and after the frame time are welcome: they are interpolated, not double-counted).
   OdometryResult process(const StereoFrame& frame, std::span<const ImuSample> imu);
   /// Second half, for a frame whose features were computed by `frontend()` elsewhere.
+  /// Deferred global mode: the result is the local pose, and the frame's request for the
+  /// global step is left for takeGlobalRequest() (or handed to the GlobalLink).
   OdometryResult track(FrameFeatures&& frame, std::span<const ImuSample> imu);
+
+  /// True when the global step is deferred (global mode with GlobalDelivery::kDeferred or
+  /// a GlobalLink).
+  bool deferredGlobal() const { return deferred_; }
+  /// Deferred mode: the last tracked frame's request (none for frames that coasted on the
+  /// IMU, or already taken). Refine it with a GlobalRefiner made by makeGlobalRefiner().
+  std::optional<GlobalRequest> takeGlobalRequest();
+  /// Deferred mode: composes a correction onto the current state, however many frames were
+  /// tracked since its frame: the delta in W moves the current and previous-frame poses (so
+  /// the next prediction starts from the corrected pose), rotates the velocity, and shrinks
+  /// the pose covariance as the inline path does.
+  void applyGlobalCorrection(const GlobalCorrection& correction);
+  /// A refiner with this odometry's rig and global parameters and an empty map.
+  GlobalRefiner makeGlobalRefiner(NowNsFn now = {}) const;
 
   const Frontend& frontend() const { return frontend_; }
   double detectorThreshold() const { return controller_.threshold(); }
-  const map::FrameMap& frameMap() const { return map_; }
+  /// The inline global step's map (empty in deferred mode: the refiner elsewhere holds it).
+  const map::FrameMap& frameMap() const { return refiner_.frameMap(); }
   const NavState& state() const { return state_; }
   /// Global mode: frames whose pose was pulled towards an older keyframe seen again.
-  int revisitCorrections() const { return revisit_corrections_; }
+  int revisitCorrections() const { return refiner_.revisitCorrections() + deferred_revisits_; }
   /// Bytes of the map plus the re-observation descriptors (for the memory report).
   std::size_t mapMemoryBytes() const;
 
@@ -101,21 +156,12 @@ class Odometry {
     Eigen::Isometry3d T_W_R0 = Eigen::Isometry3d::Identity();
     int64_t t_ns = 0;
   };
-  /// A keyframe kept for re-observation: its features (descriptors quantised to 8 bits) and
-  /// the position variance of its pose when it was stored.
-  struct RevisitFrame {
-    int64_t t_ns = 0;
-    Eigen::Isometry3d T_W_R0 = Eigen::Isometry3d::Identity();
-    double position_variance_m2 = 0;
-    matching::StereoFeatures features;
-  };
   void initialise(const FrameFeatures& frame, std::span<const ImuSample> imu);
-  void storeRevisitFrame(uint64_t id, const matching::StereoFeatures& features, const Eigen::Isometry3d& T_W_R0,
-                         int64_t t_ns);
-  /// Pose of R0 re-measured against the oldest-enough keyframe near `T_W_R0`, blended by
-  /// uncertainty; `T_W_R0` unchanged (false) when none is seen again convincingly.
-  bool correctFromRevisit(const matching::StereoFeatures& current, const std::vector<const map::MapFrame*>& selected,
-                          int64_t t_ns, Eigen::Isometry3d& T_W_R0);
+  /// Makes the frame just tracked (pose `T_W_R0`, the current pose covariance) the keyframe.
+  void newKeyframe(const matching::StereoFeatures& features, const Eigen::Isometry3d& T_W_R0, int64_t t_ns);
+  /// Deferred mode: the request for the frame just tracked.
+  void makeGlobalRequest(const FrameFeatures& frame, const Eigen::Isometry3d& T_W_R0, const OdometryResult& r,
+                         bool first_frame);
 
   Frontend frontend_;
   imu::ImuNoise imu_noise_;
@@ -124,7 +170,8 @@ class Odometry {
   features::FeatureCountController controller_;
   geometry::QuadrifocalRansac ransac_;
   geometry::QuadrifocalRansac rescue_ransac_;  ///< relaxed threshold (rescue_inlier_threshold_px)
-  map::FrameMap map_;
+  GlobalRefiner refiner_;  ///< the inline global step (unused when deferred)
+  bool deferred_ = false;
   std::mt19937 rng_;
 
   bool initialised_ = false;
@@ -136,12 +183,23 @@ class Odometry {
   int still_samples_ = 0;
   Eigen::Matrix<double, 6, 6> pose_covariance_ = Eigen::Matrix<double, 6, 6>::Zero();
   std::optional<PreviousFrame> previous_;
+  /// What the next frame is tracked against (keyframe_tracking): a keyframe, its pose
+  /// covariance, and the gyro's rotation from it to the previous frame.
+  struct Keyframe {
+    matching::StereoFeatures features;
+    Eigen::Isometry3d T_W_R0 = Eigen::Isometry3d::Identity();
+    int64_t t_ns = 0;
+    Eigen::Matrix<double, 6, 6> pose_covariance = Eigen::Matrix<double, 6, 6>::Zero();
+    int first_inliers = 0;  ///< RANSAC inliers of the first frame tracked against it (0: none yet)
+    Eigen::Matrix3d R_kf_prev_gyro = Eigen::Matrix3d::Identity();  ///< rectified left cameras
+    Eigen::Matrix3d gyro_covariance = Eigen::Matrix3d::Zero();    ///< its white-noise part [rad^2]
+  };
+  std::optional<Keyframe> keyframe_;
   Eigen::Isometry3d last_motion_ = Eigen::Isometry3d::Identity();  ///< for IMU-less prediction
   double last_dt_s_ = 0;
   std::vector<ImuSample> imu_buffer_;  ///< samples kept across calls for interpolation
-  std::unordered_map<uint64_t, RevisitFrame> revisit_frames_;  ///< by map keyframe id
-  Eigen::Vector3d last_revisit_position_ = Eigen::Vector3d::Constant(1e300);
-  int revisit_corrections_ = 0;
+  std::optional<GlobalRequest> pending_request_;  ///< deferred mode, not yet taken
+  int deferred_revisits_ = 0;  ///< re-observations among the corrections applied
 };
 
 }  // namespace seavio::odometry

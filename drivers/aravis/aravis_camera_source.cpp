@@ -171,10 +171,13 @@ struct Camera {
   /// Frees everything; a pending reconnect is abandoned and cleans up after itself.
   void close(bool camera_alive) {
     if (job) {
-      std::lock_guard<std::mutex> lock(job->m);
-      job->abandoned = true;
-      if (job->done && job->ok) release(job->result);
-      job.reset();
+      // Our reference outlives the lock: if the reconnect thread has already dropped its
+      // own, resetting `job` under the lock freed the mutex before its unlock (TSan
+      // heap-use-after-free in the end-to-end camera-restart test).
+      auto j = std::move(job);
+      std::lock_guard<std::mutex> lock(j->m);
+      j->abandoned = true;
+      if (j->done && j->ok) release(j->result);
     }
     Opened o = detach();
     if (!o.camera) return;

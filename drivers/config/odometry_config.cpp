@@ -197,6 +197,10 @@ void visit(V& v, odometry::OdometryParams& p) {
   v.value("min_inliers", p.min_inliers, 3, 100000);
   v.value("rescue_inlier_threshold_px", p.rescue_inlier_threshold_px, 0, 100);
   v.value("rescue_min_inliers", p.rescue_min_inliers, 3, 100000);
+  v.flag("keyframe_tracking", p.keyframe_tracking);
+  v.value("keyframe_max_distance_m", p.keyframe_max_distance_m, 0, 1000);
+  v.value("keyframe_min_inlier_ratio", p.keyframe_min_inlier_ratio, 0, 1);
+  v.value("keyframe_min_inliers", p.keyframe_min_inliers, 3, 100000);
   v.value("initial_velocity_sigma_m_s", p.initial_velocity_sigma_m_s, 0, 100);
   v.value("velocity_sigma_m_s", p.velocity_sigma_m_s, 0, 100);
   v.value("attitude_sigma_rad", p.attitude_sigma_rad, 0, 3.2);
@@ -264,6 +268,7 @@ void visit(V& v, odometry::OdometryParams& p) {
     v.value("max_selected_frames", p.map.max_selected_frames, 1, 100000);
     v.value("keyframe_distance_m", p.map.keyframe_distance_m, 0, 10000);
     v.value("keyframe_angle_rad", p.map.keyframe_angle_rad, 0, 3.2);
+    v.value("overlap_radius_m", p.map.overlap_radius_m, 0, 10000);
     v.value("voxel_size_m", p.map.voxel_size_m, 1e-4, 100);
     v.value("max_points_per_frame", p.map.max_points_per_frame, 1, 1000000);
   });

@@ -43,9 +43,9 @@ seavio_lcm::pose_t toPoseMsg(const OdometryResult& r, int64_t publish_t_ns) {
     case PoseSource::kImuOnly: flags = seavio_lcm::pose_t::FLAG_IMU_ONLY; break;
   }
   if (!finite) flags = seavio_lcm::pose_t::FLAG_IMU_ONLY;
-  // The global-map ICP refinement is reported through its inlier count (paper Sec. III-D).
-  flags |= r.quality.icp_inliers > 0 ? static_cast<int32_t>(seavio_lcm::pose_t::FLAG_GLOBAL_REFINED)
-                                     : static_cast<int32_t>(seavio_lcm::pose_t::FLAG_LOCAL_ONLY);
+  // Refined = the global map moved this pose (paper Sec. III-D/E); frame-to-frame ICP is local.
+  flags |= r.quality.map_refined ? static_cast<int32_t>(seavio_lcm::pose_t::FLAG_GLOBAL_REFINED)
+                                 : static_cast<int32_t>(seavio_lcm::pose_t::FLAG_LOCAL_ONLY);
   m.flags = flags;
   m.features_left = r.quality.features_left;
   m.features_right = r.quality.features_right;
@@ -109,6 +109,7 @@ OdometryResult fromPoseMsg(const seavio_lcm::pose_t& m) {
   r.quality.ransac_inliers = m.ransac_inliers;
   r.quality.icp_inliers = m.icp_inliers;
   r.quality.icp_rms_m = m.icp_rms_m;
+  r.quality.map_refined = (m.flags & seavio_lcm::pose_t::FLAG_GLOBAL_REFINED) != 0;
   r.times.total_ms = m.processing_ms;
   return r;
 }

@@ -1,12 +1,14 @@
 // Fixed-input driver for scripts/callgrind.sh (issue 8): runs ONE hot path once, with
 // callgrind's instrumentation switched on only around it, so the instruction count (Ir) is
 // that of the stage alone and comparable across commits on a noisy machine.
-//   hotpaths surf_detect | surf_describe | ransac | icp | frame
+//   hotpaths surf_detect | surf_describe | ransac | icp | frame | frame2
 // surf_detect: SURF detection + orientation on the 640 x 480 benchmark texture at a fixed
 // threshold (~500 features); surf_describe: the same plus descriptors; ransac: tensor RANSAC
 // + refinement, 100 matches, 30% outliers; icp: 600 points against a 2,600-point model,
 // kd-tree build included; frame: frame 7 of a short-plain clip, global mode, features
-// sequential (Odometry::process). Outside valgrind it just runs the stage and prints a line.
+// sequential (Odometry::process); frame2: the same frame through daemon::OdometryProcessor
+// with the right image on its worker thread (`seavio run --threads 2`, both threads counted).
+// Outside valgrind it just runs the stage and prints a line.
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -29,6 +31,7 @@
 #include "core/icp/icp.hpp"
 #include "core/icp/point_cloud_index.hpp"
 #include "core/odometry/odometry.hpp"
+#include "daemon/odometry_processor.hpp"
 #include "tests/bench/synthetic_clip.hpp"
 #include "tests/core/features/synthetic_texture.hpp"
 #include "tests/core/geometry/synthetic_scene.hpp"
@@ -102,7 +105,7 @@ int icpStage() {
   return 0;
 }
 
-int frame() {
+int frame(std::size_t threads) {
   constexpr int kFrames = 8;
   const bench::SurveyClip c = bench::renderClip(kFrames);
   std::string error;
@@ -113,7 +116,7 @@ int frame() {
   }
   odometry::OdometryParams p;
   p.mode = odometry::Mode::kGlobal;
-  odometry::Odometry odo(std::move(*rect), c.imu_noise, p);
+  daemon::OdometryProcessor odo(odometry::Odometry(std::move(*rect), c.imu_noise, p), threads);
   for (int k = 0; k + 1 < kFrames; ++k) odo.process(c.frames[k], c.imu[k]);
   SEAVIO_CG_START();
   const OdometryResult r = odo.process(c.frames[kFrames - 1], c.imu[kFrames - 1]);
@@ -132,7 +135,8 @@ int main(int argc, char** argv) {
   if (stage == "surf_describe") return surf(true);
   if (stage == "ransac") return ransac();
   if (stage == "icp") return icpStage();
-  if (stage == "frame") return frame();
-  std::fprintf(stderr, "usage: hotpaths surf_detect|surf_describe|ransac|icp|frame\n");
+  if (stage == "frame") return frame(1);
+  if (stage == "frame2") return frame(2);
+  std::fprintf(stderr, "usage: hotpaths surf_detect|surf_describe|ransac|icp|frame|frame2\n");
   return 2;
 }

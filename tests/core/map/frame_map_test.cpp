@@ -69,6 +69,7 @@ TEST(FrameMap, KeyframePolicyByDistanceAndAngle) {
   FrameMapParams p;
   p.keyframe_distance_m = 0.5;
   p.keyframe_angle_rad = 0.2;
+  p.overlap_radius_m = 0.0;  // the travel/rotation rule alone
   FrameMap map(p);
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   EXPECT_TRUE(map.wantsKeyframe(T));

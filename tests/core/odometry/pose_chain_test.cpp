@@ -13,6 +13,7 @@
 
 #include "core/imu/imu_integrator.hpp"
 #include "core/odometry/odometry.hpp"
+#include "tests/core/odometry/downward_rig.hpp"
 
 namespace seavio::odometry {
 namespace {
@@ -27,22 +28,7 @@ Eigen::Isometry3d bodyPose(double t) {
   return T;
 }
 
-camera::StereoCalibration downwardRig() {
-  camera::StereoCalibration c;
-  for (auto* k : {&c.cam0, &c.cam1}) {
-    k->width = 640;
-    k->height = 480;
-    k->fx = k->fy = 550;
-    k->cx = 319.5;
-    k->cy = 239.5;
-  }
-  Eigen::Matrix3d R_B_C;
-  R_B_C << 0, -1, 0, -1, 0, 0, 0, 0, -1;  // looking down, image top forward
-  c.T_B_C0.linear() = c.T_B_C1.linear() = R_B_C;
-  c.T_B_C0.translation() = Eigen::Vector3d(0.06, 0.16, -0.08);
-  c.T_B_C1.translation() = c.T_B_C0.translation() + R_B_C.col(0) * 0.32;
-  return c;
-}
+using test::downwardRig;
 
 TEST(OdometryPoseChain, WorldRotationStaysOrthonormalAndStepsKeepTheirLength) {
   std::string error;

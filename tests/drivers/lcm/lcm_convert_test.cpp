@@ -22,6 +22,7 @@ OdometryResult sampleResult() {
   r.quality.features_left = 500;
   r.quality.ransac_inliers = 120;
   r.quality.icp_inliers = 80;
+  r.quality.map_refined = true;
   r.times.total_ms = 33.0;
   return r;
 }
@@ -48,6 +49,7 @@ TEST(LcmConvert, PoseRoundTripKeepsPoseCovarianceAndFlags) {
   EXPECT_TRUE(d.flags & seavio_lcm::pose_t::FLAG_VISUAL);
   EXPECT_TRUE(d.flags & seavio_lcm::pose_t::FLAG_GLOBAL_REFINED);
   EXPECT_FALSE(d.flags & seavio_lcm::pose_t::FLAG_LOCAL_ONLY);
+  EXPECT_TRUE(back.quality.map_refined);
   EXPECT_EQ(d.ransac_inliers, 120);
   EXPECT_DOUBLE_EQ(d.processing_ms, 33.0);
 }
@@ -67,9 +69,14 @@ TEST(LcmConvert, ImuOnlyAndLocalOnlyFlags) {
   OdometryResult r = sampleResult();
   r.source = PoseSource::kImuOnly;
   r.quality.icp_inliers = 0;
+  r.quality.map_refined = false;
   const seavio_lcm::pose_t m = toPoseMsg(r, 0);
   EXPECT_EQ(m.flags, static_cast<int32_t>(seavio_lcm::pose_t::FLAG_IMU_ONLY) |
                          static_cast<int32_t>(seavio_lcm::pose_t::FLAG_LOCAL_ONLY));
+  // Frame-to-frame ICP (local mode) is not a global refinement.
+  r.source = PoseSource::kVision;
+  r.quality.icp_inliers = 80;
+  EXPECT_TRUE(toPoseMsg(r, 0).flags & seavio_lcm::pose_t::FLAG_LOCAL_ONLY);
 }
 
 TEST(LcmConvert, StereoRoundTripIsBitExact) {

@@ -1,5 +1,6 @@
 // End-to-end tests of the local variant (issue 4) on short simulated surveys with seeds the
 // pipeline was not tuned on (tuning used seed 5). Each sequence is rendered once per run.
+#include <algorithm>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -46,6 +47,7 @@ const drivers::Dataset& sequence(uint32_t seed, bool snow) {
 
 struct RunResult {
   eval::TrajectoryMetrics metrics;
+  double final_attitude_error_rad = 0;  ///< after first-pose alignment
   int imu_only_frames = 0;
   int frames = 0;
 };
@@ -72,6 +74,14 @@ RunResult runOdometry(const drivers::Dataset& ds, const odometry::OdometryParams
   for (const auto& g : ds.ground_truth) gt.push_back({g.t_ns, g.T_W_B});
   out.frames = static_cast<int>(est.size());
   out.metrics = eval::evaluateTrajectory(gt, est, eval::EvalParams{});
+  // Ground truth at the first and last frame times (the IMU-rate stamps include them).
+  const auto gtAt = [&](int64_t t_ns) {
+    const auto it = std::find_if(gt.begin(), gt.end(), [&](const eval::TimedPose& g) { return g.t_ns >= t_ns; });
+    return it == gt.end() ? gt.back().T_W_B : it->T_W_B;
+  };
+  const Eigen::Matrix3d R_align = gtAt(est.front().t_ns).linear() * est.front().T_W_B.linear().transpose();
+  const Eigen::Matrix3d R_err = (R_align * est.back().T_W_B.linear()).transpose() * gtAt(est.back().t_ns).linear();
+  out.final_attitude_error_rad = Eigen::AngleAxisd(R_err).angle();
   return out;
 }
 
@@ -98,19 +108,28 @@ TEST(LocalOdometry, TracksAnUntunedPlainSurveyFarBetterThanDeadReckoning) {
   // WHEN the local variant runs over it
   const RunResult r = runOdometry(ds, odometry::OdometryParams{});
   const eval::TrajectoryMetrics imu = runImuOnly(ds);
+  RecordProperty("mean_error_um", static_cast<int>(1e6 * r.metrics.mean_error_m));
+  RecordProperty("final_error_um", static_cast<int>(1e6 * r.metrics.final_error_m));
+  RecordProperty("distance_mm", static_cast<int>(1e3 * r.metrics.distance_m));
   // THEN every frame is visual, the drift is small and an order below dead reckoning's
   EXPECT_EQ(r.imu_only_frames, 0);
   EXPECT_GT(r.metrics.distance_m, 4.0);
-  EXPECT_LT(r.metrics.mean_error_pct, 1.0) << "mean error " << r.metrics.mean_error_m << " m";
-  EXPECT_LT(r.metrics.final_error_pct, 2.0) << "final error " << r.metrics.final_error_m << " m";
+  // Measured with keyframe tracking: 0.20 % mean, 0.47 % final over these 5.9 m (the 0.5 s
+  // still start leaves the gyro bias coarse); limits about twice that.
+  EXPECT_LT(r.metrics.mean_error_pct, 0.4) << "mean error " << r.metrics.mean_error_m << " m";
+  EXPECT_LT(r.metrics.final_error_pct, 0.8) << "final error " << r.metrics.final_error_m << " m";
   EXPECT_LT(r.metrics.final_error_m * 5, imu.final_error_m);
 }
 
 TEST(LocalOdometry, MarineSnowCostsLittle) {
   const RunResult plain = runOdometry(sequence(202, false), odometry::OdometryParams{});
   const RunResult snow = runOdometry(sequence(202, true), odometry::OdometryParams{});
+  RecordProperty("mean_error_um_plain", static_cast<int>(1e6 * plain.metrics.mean_error_m));
+  RecordProperty("mean_error_um_snow", static_cast<int>(1e6 * snow.metrics.mean_error_m));
+  RecordProperty("final_error_um_snow", static_cast<int>(1e6 * snow.metrics.final_error_m));
+  RecordProperty("distance_mm", static_cast<int>(1e3 * snow.metrics.distance_m));
   EXPECT_EQ(snow.imu_only_frames, 0);
-  EXPECT_LT(snow.metrics.mean_error_pct, 1.0);
+  EXPECT_LT(snow.metrics.mean_error_pct, 0.3);  // measured 0.10 %
   // Within 20 % of plain, or within 2 cm where both are tiny.
   EXPECT_LT(snow.metrics.mean_error_m, std::max(1.2 * plain.metrics.mean_error_m, plain.metrics.mean_error_m + 0.02));
 }
@@ -124,6 +143,27 @@ TEST(LocalOdometry, GyroPriorBeatsVisionOnlyRotation) {
   const RunResult with_prior = runOdometry(ds, odometry::OdometryParams{});
   const RunResult no_prior = runOdometry(ds, without);
   EXPECT_LT(with_prior.metrics.final_error_m, no_prior.metrics.final_error_m);
+}
+
+TEST(LocalOdometry, KeyframeTrackingIsNoWorseThanFrameToFrame) {
+  // GIVEN a short plain survey at 10 Hz, where a keyframe stays in view for about ten frames
+  const drivers::Dataset& ds = sequence(101, false);
+  odometry::OdometryParams frame_to_frame;
+  frame_to_frame.keyframe_tracking = false;
+  // WHEN it is tracked against keyframes, and frame to frame
+  const RunResult keyframes = runOdometry(ds, odometry::OdometryParams{});
+  const RunResult consecutive = runOdometry(ds, frame_to_frame);
+  // THEN every frame stays visual, and neither the attitude nor the position is worse. (Over
+  // 7 s the gain is small, 3.0 against 3.2 mrad here; the gyro's noise random-walks once per
+  // tracked pair, so it grows with the survey: see the closing note of issue 4.)
+  RecordProperty("attitude_error_urad_keyframes", static_cast<int>(1e6 * keyframes.final_attitude_error_rad));
+  RecordProperty("attitude_error_urad_consecutive", static_cast<int>(1e6 * consecutive.final_attitude_error_rad));
+  RecordProperty("mean_error_um_keyframes", static_cast<int>(1e6 * keyframes.metrics.mean_error_m));
+  RecordProperty("mean_error_um_consecutive", static_cast<int>(1e6 * consecutive.metrics.mean_error_m));
+  RecordProperty("final_error_um_keyframes", static_cast<int>(1e6 * keyframes.metrics.final_error_m));
+  EXPECT_EQ(keyframes.imu_only_frames, 0);
+  EXPECT_LT(keyframes.final_attitude_error_rad, 1.05 * consecutive.final_attitude_error_rad);
+  EXPECT_LT(keyframes.metrics.mean_error_m, consecutive.metrics.mean_error_m + 0.002);
 }
 
 }  // namespace

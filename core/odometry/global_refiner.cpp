@@ -1,0 +1,203 @@
+#include "core/odometry/global_refiner.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/common/se3.hpp"
+#include "core/common/stage_timer.hpp"
+#include "core/odometry/pose_checks.hpp"
+
+namespace seavio::odometry {
+namespace {
+
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+
+}  // namespace
+
+std::string_view toString(GlobalRejection r) {
+  switch (r) {
+    case GlobalRejection::kNone: return "none";
+    case GlobalRejection::kNoRevisit: return "no-revisit";
+    case GlobalRejection::kIcpFailed: return "icp-failed";
+    case GlobalRejection::kCorrectionTooLarge: return "correction-too-large";
+  }
+  return "unknown";
+}
+
+GlobalRefiner::GlobalRefiner(const camera::RectifiedRig& rig, const GlobalRefinerParams& params, NowNsFn now)
+    : rig_(rig), params_(params), now_(std::move(now)), ransac_(rig, params.ransac), map_(params.map) {}
+
+GlobalCorrection GlobalRefiner::refine(const GlobalRequest& request, std::mt19937& rng) {
+  StageTimer timer(now_);
+  GlobalCorrection c = correct(request.features, request.points_R0, request.frame_id, request.t_ns, request.T_W_R0,
+                               request.pose_covariance, rng);
+  c.T_W_R0 = orthonormalized(c.T_W_R0);
+  c.correction_W = orthonormalized(c.T_W_R0 * request.T_W_R0.inverse());
+  // The re-observation keyframe remembers the position uncertainty the pose has once the
+  // correction is in, as the inline path does.
+  const double position_variance = c.covariance_scale * request.pose_covariance.bottomRightCorner<3, 3>().trace() +
+                                   3.0 * c.added_position_variance_m2;
+  c.keyframe_inserted = insertKeyframe(request.frame_id, request.t_ns, c.T_W_R0, request.points_R0,
+                                       request.features, position_variance, request.first_frame);
+  c.time_ms = timer.total_ms();
+  return c;
+}
+
+GlobalCorrection GlobalRefiner::correct(const matching::StereoFeatures& features,
+                                        std::span<const Eigen::Vector3f> points_R0, uint64_t frame_id, int64_t t_ns,
+                                        const Eigen::Isometry3d& T_W_R0_local, const Matrix6d& pose_covariance,
+                                        std::mt19937& rng) {
+  GlobalCorrection c;
+  c.frame_id = frame_id;
+  c.t_ns = t_ns;
+  Eigen::Isometry3d T_W_R0 = T_W_R0_local;
+  const auto selected = map_.selectNear(T_W_R0.translation());
+  correctFromRevisit(features, selected, t_ns, pose_covariance, rng, T_W_R0, c);
+  // Registering against frames just behind us only re-measures the motion the tensor
+  // already measured better; the map bounds the drift when the survey comes back over
+  // older ground (paper III-D), so ICP runs when the selection holds such frames.
+  const int64_t revisit_ns = static_cast<int64_t>(params_.min_revisit_age_s * 1e9);
+  const bool revisit = std::any_of(selected.begin(), selected.end(),
+                                   [&](const map::MapFrame* f) { return t_ns - f->t_ns >= revisit_ns; });
+  const map::ModelCloud model = revisit ? map_.buildModel(selected) : map::ModelCloud{};
+  c.model_points = static_cast<int>(model.points_W.size());
+  if (model.points_W.empty()) {
+    if (!c.revisit_used) c.rejection = GlobalRejection::kNoRevisit;
+    c.T_W_R0 = T_W_R0;
+    return c;
+  }
+  const icp::PointCloudIndex index(model.points_W);
+  // Descriptor seeds are only known against the previous frame; the rest is geometry.
+  const icp::IcpResult icp = icp::alignIcp(points_R0, model.points_W, index, {}, T_W_R0, params_.icp);
+  c.icp_ran = true;
+  c.icp_iterations = icp.iterations;
+  c.icp_inliers = icp.inliers;
+  c.icp_rms_m = icp.rms_m;
+  // Gate: the map may pull the frame only as far as the odometry could plausibly have
+  // drifted; a larger correction is an ICP local minimum, not information.
+  if (icp.status != icp::IcpStatus::kOk || !finitePose(icp.T_model_data)) {
+    c.rejection = GlobalRejection::kIcpFailed;
+  } else {
+    const Eigen::Isometry3d correction = T_W_R0.inverse() * icp.T_model_data;
+    if (correction.translation().norm() <= params_.max_map_correction_m &&
+        se3::angle(correction) <= params_.max_map_correction_rad) {
+      T_W_R0 = icp.T_model_data;
+      c.icp_accepted = true;
+    } else {
+      c.rejection = GlobalRejection::kCorrectionTooLarge;
+    }
+  }
+  c.T_W_R0 = T_W_R0;
+  return c;
+}
+
+bool GlobalRefiner::insertKeyframe(uint64_t frame_id, int64_t t_ns, const Eigen::Isometry3d& T_W_R0,
+                                   std::vector<Eigen::Vector3f> points_R0, const matching::StereoFeatures& features,
+                                   double position_variance_m2, bool force) {
+  if (!force && !map_.wantsKeyframe(T_W_R0)) return false;
+  map_.insert(map::MapFrame{frame_id, t_ns, T_W_R0, std::move(points_R0)});
+  if (force || (T_W_R0.translation() - last_revisit_position_).norm() >= params_.revisit_keyframe_distance_m)
+    storeRevisitFrame(frame_id, features, T_W_R0, t_ns, position_variance_m2);
+  return true;
+}
+
+void GlobalRefiner::storeRevisitFrame(uint64_t id, const matching::StereoFeatures& features,
+                                      const Eigen::Isometry3d& T_W_R0, int64_t t_ns, double position_variance_m2) {
+  RevisitFrame f;
+  f.t_ns = t_ns;
+  f.T_W_R0 = T_W_R0;
+  f.position_variance_m2 = position_variance_m2;
+  // Compact: an even subsample of the points, float descriptors (unit length, so every
+  // component in [-1, 1]) quantised to 8 bits.
+  const std::size_t n = features.points.size();
+  const std::size_t keep = std::min(n, static_cast<std::size_t>(std::max(params_.revisit_max_points, 1)));
+  if (keep == 0 || features.descriptors.rows != static_cast<int>(n)) return;
+  const double step = static_cast<double>(n) / static_cast<double>(keep);
+  cv::Mat rows(static_cast<int>(keep), features.descriptors.cols, features.descriptors.type());
+  for (std::size_t i = 0; i < keep; ++i) {
+    const auto src = static_cast<std::size_t>(static_cast<double>(i) * step);
+    f.features.points.push_back(features.points[src]);
+    f.features.laplacian_sign.push_back(features.laplacian_sign.empty() ? -1 : features.laplacian_sign[src]);
+    features.descriptors.row(static_cast<int>(src)).copyTo(rows.row(static_cast<int>(i)));
+  }
+  if (rows.type() == CV_32F) {
+    rows.convertTo(f.features.descriptors, CV_8S, 127.0);
+  } else {
+    f.features.descriptors = rows;
+  }
+  revisit_frames_[id] = std::move(f);
+  last_revisit_position_ = T_W_R0.translation();
+}
+
+bool GlobalRefiner::correctFromRevisit(const matching::StereoFeatures& current,
+                                       const std::vector<const map::MapFrame*>& selected, int64_t t_ns,
+                                       const Matrix6d& pose_covariance, std::mt19937& rng, Eigen::Isometry3d& T_W_R0,
+                                       GlobalCorrection& out) {
+  const int64_t revisit_ns = static_cast<int64_t>(params_.min_revisit_age_s * 1e9);
+  const RevisitFrame* old = nullptr;
+  for (const map::MapFrame* f : selected) {  // nearest first
+    if (t_ns - f->t_ns < revisit_ns) continue;
+    const auto it = revisit_frames_.find(f->id);
+    if (it != revisit_frames_.end()) {
+      old = &it->second;
+      break;
+    }
+  }
+  if (old == nullptr) return false;
+  matching::StereoFeatures old_features;
+  old_features.points = old->features.points;
+  old_features.laplacian_sign = old->features.laplacian_sign;
+  if (old->features.descriptors.type() == CV_8S && current.descriptors.type() == CV_32F) {
+    old->features.descriptors.convertTo(old_features.descriptors, CV_32F, 1.0 / 127.0);
+  } else if (old->features.descriptors.type() == current.descriptors.type()) {
+    old_features.descriptors = old->features.descriptors;
+  } else {
+    return false;
+  }
+  // The drift accumulated since the old frame sizes the search: the shared part of the two
+  // poses' uncertainty cancels in their relative pose.
+  const double drift_var = std::max(pose_covariance.bottomRightCorner<3, 3>().trace() - old->position_variance_m2, 1e-4);
+  Matrix6d cov = Matrix6d::Zero();
+  cov.topLeftCorner<3, 3>() = pose_covariance.topLeftCorner<3, 3>() + Eigen::Matrix3d::Identity() * 1e-6;
+  cov.bottomRightCorner<3, 3>() = Eigen::Matrix3d::Identity() * (drift_var / 3.0);
+  const Eigen::Isometry3d guess = old->T_W_R0.inverse() * T_W_R0;
+  const auto matches = matching::matchTemporal(old_features, current, rig_, guess, cov, params_.temporal);
+  if (static_cast<int>(matches.size()) < params_.revisit_min_inliers) return false;
+  std::vector<geometry::QuadMatch> quads;
+  quads.reserve(matches.size());
+  for (const auto& m : matches) {
+    const auto& a = old_features.points[static_cast<std::size_t>(m.prev)];
+    const auto& b = current.points[static_cast<std::size_t>(m.curr)];
+    quads.push_back(geometry::QuadMatch{a.uv_left, a.uv_right, b.uv_left, b.uv_right});
+  }
+  const geometry::RansacResult ransac = ransac_.estimate(quads, guess, rng);
+  if (ransac.status != geometry::RansacStatus::kOk ||
+      static_cast<int>(ransac.inliers.size()) < params_.revisit_min_inliers || !finitePose(ransac.T_prev_curr))
+    return false;
+  const Eigen::Isometry3d measured = old->T_W_R0 * ransac.T_prev_curr;
+  const Eigen::Isometry3d correction = T_W_R0.inverse() * measured;
+  if (correction.translation().norm() > params_.max_revisit_correction_m) return false;
+  // Blend by uncertainty: the re-observation carries the old pose's error plus its own
+  // noise, the odometry the same old error plus the drift since.
+  const double meas_var = std::max(Matrix6d(ransac.covariance).bottomRightCorner<3, 3>().trace(), 1e-8);
+  const double w = drift_var / (drift_var + meas_var);
+  T_W_R0 = orthonormalized(T_W_R0 * se3::expSE3(w * se3::logSE3(correction)));
+  out.covariance_scale = 1.0 - w;
+  out.added_position_variance_m2 = w * old->position_variance_m2 / 3.0;
+  out.revisit_used = true;
+  ++revisit_corrections_;
+  return true;
+}
+
+std::size_t GlobalRefiner::memoryBytes() const {
+  std::size_t bytes = map_.memoryBytes();
+  for (const auto& [id, f] : revisit_frames_) {
+    bytes += sizeof(id) + sizeof(f) + 16;
+    bytes += f.features.points.capacity() * sizeof(matching::StereoPoint);
+    bytes += f.features.laplacian_sign.capacity() * sizeof(int);
+    bytes += f.features.descriptors.total() * f.features.descriptors.elemSize();
+  }
+  return bytes;
+}
+
+}  // namespace seavio::odometry

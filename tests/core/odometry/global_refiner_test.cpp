@@ -1,0 +1,300 @@
+// The global step as its own unit (issue 8: the global ICP on its own thread): GlobalRefiner
+// in isolation, and Odometry's deferred mode against the inline one on a synthetic survey
+// that comes back over its own ground.
+#include "core/odometry/global_refiner.hpp"
+
+#include <cmath>
+#include <deque>
+#include <numbers>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "core/imu/imu_integrator.hpp"
+#include "core/odometry/odometry.hpp"
+#include "tests/core/odometry/downward_rig.hpp"
+
+namespace seavio::odometry {
+namespace {
+
+using test::downwardRig;
+
+/// Out and back along x: 0 -> 4 m -> 0 over `kPeriod`, so the second half re-visits ground
+/// first seen several seconds earlier.
+constexpr double kAmp = 2.0, kPeriod = 12.0;  // [m], [s]
+Eigen::Isometry3d bodyPose(double t) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = Eigen::Vector3d(kAmp * (1 - std::cos(2 * std::numbers::pi * t / kPeriod)), 0, 0);
+  return T;
+}
+Eigen::Vector3d bodyAccel(double t) {
+  const double w = 2 * std::numbers::pi / kPeriod;
+  return Eigen::Vector3d(kAmp * w * w * std::cos(w * t), 0, 0);
+}
+
+/// Seafloor 4 m below with a random unit descriptor per point; frames and IMU made from it.
+struct Survey {
+  camera::RectifiedRig rig;
+  std::vector<Eigen::Vector3d> world;
+  cv::Mat world_desc;
+  std::mt19937 rng{7};
+  int64_t imu_t = -1'000'000'000;  // IMU from 1 s before the first frame (still start)
+
+  explicit Survey(const camera::RectifiedRig& r) : rig(r) {
+    std::uniform_real_distribution<double> ux(-3.0, 8.0), uy(-3.0, 3.0), uz(-0.3, 0.3);
+    std::normal_distribution<float> gauss(0.f, 1.f);
+    const int n = 1500;
+    world.resize(n);
+    world_desc.create(n, 64, CV_32F);
+    for (int i = 0; i < n; ++i) {
+      world[i] = Eigen::Vector3d(ux(rng), uy(rng), -4.0 + uz(rng));  // relief, so ICP is constrained
+      for (int d = 0; d < 64; ++d) world_desc.at<float>(i, d) = gauss(rng);
+      cv::normalize(world_desc.row(i), world_desc.row(i));
+    }
+  }
+
+  std::vector<ImuSample> imuUntil(int64_t t_ns) {
+    std::vector<ImuSample> out;
+    for (; imu_t <= t_ns + 5'000'000; imu_t += 5'000'000) {
+      const double ti = std::max(0.0, 1e-9 * static_cast<double>(imu_t));
+      ImuSample s;
+      s.t_ns = imu_t;
+      s.gyro_rad_s = Eigen::Vector3d::Zero();
+      s.accel_m_s2 = (imu_t < 0 ? Eigen::Vector3d::Zero() : bodyAccel(ti)) - imu::gravityW();
+      out.push_back(s);
+    }
+    return out;
+  }
+
+  FrameFeatures frame(uint64_t seq, double t, const Eigen::Isometry3d& T_W_B, double pixel_sigma) {
+    std::normal_distribution<double> pix(0.0, pixel_sigma);
+    const Eigen::Isometry3d T_R0_W = (T_W_B * rig.T_B_R0).inverse();
+    FrameFeatures ff;
+    ff.t_ns = static_cast<int64_t>(std::llround(t * 1e9));
+    ff.seq = seq;
+    std::vector<int> rows;
+    for (int i = 0; i < static_cast<int>(world.size()); ++i) {
+      const Eigen::Vector3d p = T_R0_W * world[i];
+      const Eigen::Vector2d l = rig.project(p, 0), r = rig.project(p, 1);
+      if (l.x() < 5 || l.y() < 5 || r.x() < 5 || l.x() > 634 || l.y() > 474) continue;
+      matching::StereoPoint sp;
+      sp.left_index = sp.right_index = static_cast<int>(rows.size());
+      sp.uv_left = Eigen::Vector2f(float(l.x() + pix(rng)), float(l.y() + pix(rng)));
+      sp.uv_right = Eigen::Vector2f(float(r.x() + pix(rng)), sp.uv_left.y());
+      sp.p_R0 = rig.triangulate(sp.uv_left.cast<double>(), double(sp.uv_left.x() - sp.uv_right.x())).cast<float>();
+      ff.stereo.points.push_back(sp);
+      ff.left.keypoints.emplace_back(sp.uv_left.x(), sp.uv_left.y(), 9.f);
+      rows.push_back(i);
+    }
+    ff.stereo.descriptors.create(static_cast<int>(rows.size()), 64, CV_32F);
+    for (std::size_t k = 0; k < rows.size(); ++k)
+      world_desc.row(rows[k]).copyTo(ff.stereo.descriptors.row(static_cast<int>(k)));
+    ff.stereo.laplacian_sign.assign(rows.size(), 1);
+    ff.left.descriptors = ff.stereo.descriptors;
+    ff.right = ff.left;
+    return ff;
+  }
+};
+
+camera::StereoRectifier makeRectifier() {
+  std::string error;
+  auto rectifier = camera::StereoRectifier::create(downwardRig(), &error);
+  EXPECT_TRUE(rectifier.has_value()) << error;
+  return std::move(*rectifier);
+}
+
+OdometryParams globalParams() {
+  OdometryParams p;
+  p.mode = Mode::kGlobal;
+  p.min_revisit_age_s = 6.0;  // only the way back re-visits
+  return p;
+}
+
+GlobalRequest requestAt(uint64_t id, double t, const Eigen::Isometry3d& T_W_R0, const FrameFeatures& f) {
+  GlobalRequest q;
+  q.frame_id = id;
+  q.t_ns = static_cast<int64_t>(std::llround(t * 1e9));
+  q.T_W_R0 = T_W_R0;
+  q.pose_covariance = Eigen::Matrix<double, 6, 6>::Identity() * 1e-4;
+  for (const auto& sp : f.stereo.points) q.points_R0.push_back(sp.p_R0);
+  return q;  // no descriptors: ICP only, no re-observation
+}
+
+TEST(GlobalRefiner, FirstFrameBecomesAKeyframeAndNothingIsCorrectedWithoutOldGround) {
+  // GIVEN an empty refiner
+  camera::StereoRectifier rect = makeRectifier();
+  Survey survey(rect.rig());
+  GlobalRefiner refiner(rect.rig(), globalRefinerParams(globalParams()));
+  std::mt19937 rng(1);
+  const Eigen::Isometry3d T_W_R0 = bodyPose(0) * rect.rig().T_B_R0;
+  GlobalRequest q = requestAt(0, 0.0, T_W_R0, survey.frame(0, 0.0, bodyPose(0), 0.0));
+  q.first_frame = true;
+  // WHEN the first frame and then a frame 1 s later nearby are refined
+  const GlobalCorrection c0 = refiner.refine(q, rng);
+  GlobalRequest q1 = requestAt(1, 1.0, T_W_R0, survey.frame(1, 1.0, bodyPose(0), 0.0));
+  const GlobalCorrection c1 = refiner.refine(q1, rng);
+  // THEN the first is stored, neither is moved: the map holds nothing old enough
+  EXPECT_TRUE(c0.keyframe_inserted);
+  EXPECT_EQ(refiner.frameMap().size(), 1u);
+  for (const GlobalCorrection* c : {&c0, &c1}) {
+    EXPECT_FALSE(c->changed());
+    EXPECT_FALSE(c->icp_ran);
+    EXPECT_EQ(c->rejection, GlobalRejection::kNoRevisit);
+    EXPECT_TRUE(c->correction_W.isApprox(Eigen::Isometry3d::Identity(), 1e-12));
+  }
+  EXPECT_EQ(c1.frame_id, 1u);
+}
+
+TEST(GlobalRefiner, IcpPullsADriftedFrameBackWithinTheGateAndRefusesLargerJumps) {
+  // GIVEN a keyframe of the floor stored 40 s ago at the true pose
+  camera::StereoRectifier rect = makeRectifier();
+  const camera::RectifiedRig rig = rect.rig();
+  Survey survey(rig);
+  GlobalRefiner refiner(rig, globalRefinerParams(globalParams()));
+  std::mt19937 rng(1);
+  const Eigen::Isometry3d T_W_B = bodyPose(0);
+  const Eigen::Isometry3d T_W_R0 = T_W_B * rig.T_B_R0;
+  GlobalRequest first = requestAt(0, 0.0, T_W_R0, survey.frame(0, 0.0, T_W_B, 0.0));
+  first.first_frame = true;
+  (void)refiner.refine(first, rng);
+
+  // WHEN the same ground is seen again with the odometry 2 cm off in x and y
+  Eigen::Isometry3d drifted = T_W_R0;
+  drifted.translation() += Eigen::Vector3d(0.015, -0.013, 0.0);
+  const GlobalCorrection small = refiner.correct({}, requestAt(1, 40.0, drifted, survey.frame(1, 40.0, T_W_B, 0.0)).points_R0,
+                                                 1, static_cast<int64_t>(40e9), drifted,
+                                                 Eigen::Matrix<double, 6, 6>::Identity() * 1e-4, rng);
+  // THEN ICP accepts and brings it back to within a few mm of the truth
+  ASSERT_TRUE(small.icp_ran);
+  EXPECT_TRUE(small.icp_accepted) << toString(small.rejection);
+  EXPECT_GT(small.model_points, 100);
+  EXPECT_LT((small.T_W_R0.translation() - T_W_R0.translation()).norm(), 0.005);
+
+  // WHEN it is 20 cm off: further than the odometry could have drifted
+  Eigen::Isometry3d far = T_W_R0;
+  far.translation() += Eigen::Vector3d(0.2, 0.0, 0.0);
+  GlobalRequest q = requestAt(2, 40.0, far, survey.frame(2, 40.0, T_W_B, 0.0));
+  const GlobalCorrection large = refiner.refine(q, rng);
+  // THEN the frame is left where the odometry put it, and why is said
+  EXPECT_FALSE(large.icp_accepted);
+  EXPECT_NE(large.rejection, GlobalRejection::kNone);
+  EXPECT_TRUE(large.correction_W.isApprox(Eigen::Isometry3d::Identity(), 1e-9));
+}
+
+struct SurveyRun {
+  std::vector<Eigen::Vector3d> est, truth;
+  int changed = 0;
+};
+
+/// The survey through an Odometry; with `delay_frames` > 0 the global step is deferred and
+/// each correction applied 1..delay_frames frames after its frame (cycling), the published
+/// estimate of a frame being its refined pose.
+SurveyRun runSurvey(int delay_frames) {
+  camera::StereoRectifier rect = makeRectifier();
+  const camera::RectifiedRig rig = rect.rig();
+  OdometryParams params = globalParams();
+  if (delay_frames > 0) params.global_delivery = GlobalDelivery::kDeferred;
+  Odometry odo(std::move(rect), imu::ImuNoise{}, params);
+  EXPECT_EQ(odo.deferredGlobal(), delay_frames > 0);
+  GlobalRefiner refiner = odo.makeGlobalRefiner();
+  std::mt19937 refiner_rng(99);
+  Survey survey(rig);
+  struct Pending {
+    int due = 0;
+    GlobalCorrection c;
+  };
+  std::deque<Pending> pending;  // FIFO, like the daemon's correction ring
+  SurveyRun run;
+  const int frames = 120;  // 12 s at 10 Hz: out and back
+  std::vector<Eigen::Isometry3d> local(frames);
+  run.est.resize(frames);
+  for (int f = 0; f < frames; ++f) {
+    while (!pending.empty() && pending.front().due <= f) {
+      odo.applyGlobalCorrection(pending.front().c);
+      pending.pop_front();
+    }
+    const double t = 0.1 * f;
+    std::vector<ImuSample> imu = survey.imuUntil(static_cast<int64_t>(std::llround(t * 1e9)));
+    const OdometryResult r = odo.track(survey.frame(static_cast<uint64_t>(f), t, bodyPose(t), 0.3), imu);
+    run.truth.push_back(bodyPose(t).translation());
+    run.est[f] = r.T_W_B.translation();
+    if (delay_frames > 0) {
+      EXPECT_EQ(r.quality.model_points, 0) << "deferred: no map work on the estimator";
+      if (std::optional<GlobalRequest> q = odo.takeGlobalRequest()) {
+        EXPECT_EQ(q->frame_id, static_cast<uint64_t>(f));
+        const GlobalCorrection c = refiner.refine(*q, refiner_rng);
+        run.est[f] = (c.correction_W * r.T_W_B).translation();
+        if (c.changed()) ++run.changed;
+        pending.push_back({f + 1 + f % delay_frames, c});
+      }
+    }
+  }
+  if (delay_frames == 0) run.changed = odo.revisitCorrections() + (odo.frameMap().size() > 0 ? 1 : 0);
+  return run;
+}
+
+double maxError(const SurveyRun& r) {
+  double e = 0;
+  for (std::size_t i = 0; i < r.est.size(); ++i) e = std::max(e, (r.est[i] - r.truth[i]).norm());
+  return e;
+}
+
+TEST(OdometryDeferredGlobal, CorrectionsAppliedOneToThreeFramesLateTrackTheInlinePath) {
+  // GIVEN the same revisit survey run inline and deferred (corrections 1-3 frames late)
+  const SurveyRun inline_run = runSurvey(0);
+  const SurveyRun deferred = runSurvey(3);
+  // THEN the map worked in both, and the refined trajectories stay close to each other and
+  // as close to the truth
+  EXPECT_GT(deferred.changed, 0);
+  double max_diff = 0;
+  for (std::size_t i = 0; i < inline_run.est.size(); ++i)
+    max_diff = std::max(max_diff, (inline_run.est[i] - deferred.est[i]).norm());
+  const double e_inline = maxError(inline_run), e_deferred = maxError(deferred);
+  RecordProperty("max_diff_mm", static_cast<int>(max_diff * 1000));
+  EXPECT_LT(max_diff, 0.03) << "inline max error " << e_inline << " m, deferred " << e_deferred << " m";
+  EXPECT_LT(e_deferred, e_inline + 0.02);
+}
+
+TEST(OdometryDeferredGlobal, ACorrectionMovesTheCurrentPoseAndTheNextPrediction) {
+  // GIVEN two identical deferred odometries on the same frames
+  camera::StereoRectifier r1 = makeRectifier(), r2 = makeRectifier();
+  const camera::RectifiedRig rig = r1.rig();
+  OdometryParams params = globalParams();
+  params.global_delivery = GlobalDelivery::kDeferred;
+  Odometry a(std::move(r1), imu::ImuNoise{}, params), b(std::move(r2), imu::ImuNoise{}, params);
+  Survey sa(rig), sb(rig);
+  GlobalCorrection shift;
+  shift.correction_W.translation() = Eigen::Vector3d(0.05, -0.02, 0.0);
+  shift.revisit_used = true;
+  shift.covariance_scale = 0.5;
+  for (int f = 0; f < 30; ++f) {
+    const double t = 0.1 * f;
+    const int64_t t_ns = static_cast<int64_t>(std::llround(t * 1e9));
+    std::vector<ImuSample> ia = sa.imuUntil(t_ns), ib = sb.imuUntil(t_ns);
+    // WHEN one of them gets a correction of (5, -2, 0) cm after frame 10
+    if (f == 11) {
+      b.applyGlobalCorrection(shift);
+      EXPECT_NEAR((b.state().T_W_B.translation() - a.state().T_W_B.translation()).x(), 0.05, 1e-9);
+    }
+    const OdometryResult ra = a.track(sa.frame(static_cast<uint64_t>(f), t, bodyPose(t), 0.0), ia);
+    const OdometryResult rb = b.track(sb.frame(static_cast<uint64_t>(f), t, bodyPose(t), 0.0), ib);
+    if (f >= 11) {
+      // THEN every later pose carries it: the tensor chains on the corrected pose
+      const Eigen::Vector3d d = rb.T_W_B.translation() - ra.T_W_B.translation();
+      EXPECT_NEAR(d.x(), 0.05, 2e-3) << "frame " << f;
+      EXPECT_NEAR(d.y(), -0.02, 2e-3) << "frame " << f;
+      if (f == 11) {
+        const double var_a = ra.covariance.bottomRightCorner<3, 3>().trace();
+        const double var_b = rb.covariance.bottomRightCorner<3, 3>().trace();
+        EXPECT_LT(var_b, var_a);
+      }
+    }
+    EXPECT_TRUE(a.takeGlobalRequest().has_value()) << "frame " << f;
+    (void)b.takeGlobalRequest();
+  }
+  EXPECT_EQ(b.revisitCorrections(), 1);
+}
+
+}  // namespace
+}  // namespace seavio::odometry

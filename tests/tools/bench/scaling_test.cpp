@@ -1,0 +1,168 @@
+// `seavio bench paper --data` and `seavio bench scaling` (issues 5 and 8): fits, per-frame
+// CSVs, memory samples, and a tiny end-to-end sweep at 320 x 240.
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "drivers/dataset/dataset.hpp"
+#include "tools/bench_report.hpp"
+#include "tools/run_stats.hpp"
+#include "tools/simulate/sequence_writer.hpp"
+
+namespace seavio::tools {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string errorOf(const std::function<void()>& fn) {
+  try {
+    fn();
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "no exception";
+}
+
+TEST(BenchScaling, FitLineRecoversSlopeAndFlagsDegenerateInput) {
+  std::mt19937 rng(1);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  std::vector<double> x, y;
+  for (int i = 0; i < 100; ++i) x.push_back(i), y.push_back(3.0 + 0.5 * i + noise(rng));
+  const LineFit f = fitLine(x, y);
+  EXPECT_EQ(f.n, 100);
+  EXPECT_NEAR(f.slope, 0.5, 1e-3);
+  EXPECT_NEAR(f.intercept, 3.0, 1e-2);
+  EXPECT_GT(f.r2, 0.999);
+  EXPECT_EQ(fitLine({1.0}, {2.0}).n, 0);
+  EXPECT_EQ(fitLine({1.0, 1.0}, {2.0, 3.0}).n, 0);  // no spread in x
+}
+
+TEST(BenchScaling, RssGrowthIsTheSlopeOverTheRequestedFrames) {
+  // GIVEN a map that fills for 2,000 frames then stays at 120 MiB plus 0.5 MiB per 1000 frames
+  std::vector<MemorySample> s;
+  for (std::size_t k = 1; k <= 10; ++k)
+    s.push_back({k * 1000, k <= 2 ? 60.0 * static_cast<double>(k) : 120.0 + 0.5 * static_cast<double>(k - 2)});
+  EXPECT_NEAR(rssGrowthPer1000Frames(s, 3000), 0.5, 1e-9);
+  EXPECT_GT(rssGrowthPer1000Frames(s, 0), 2.0);  // the filling dominates a fit over everything
+  EXPECT_EQ(rssGrowthPer1000Frames(s, 10000), 0.0);  // one sample: no slope
+  RunStats stats;
+  for (const auto& m : s) stats.addMemorySample(m.frames, m.rss_mb);
+  std::ostringstream os;
+  stats.printMemory(os);
+  EXPECT_NE(os.str().find("10000: 124.0"), std::string::npos) << os.str();
+  EXPECT_NE(os.str().find("0.50 MiB per 1000 frames"), std::string::npos) << os.str();
+}
+
+TEST(BenchScaling, FrameRowsCarryTheDistanceAndSurviveTheCsv) {
+  // GIVEN ground truth moving 1 m/s along x at 10 Hz and results at every second sample
+  std::vector<eval::TimedPose> gt;
+  for (int i = 0; i <= 100; ++i) {
+    eval::TimedPose p;
+    p.t_ns = int64_t{100'000'000} * i;
+    p.T_W_B.translation().x() = 0.1 * i;
+    gt.push_back(p);
+  }
+  std::vector<OdometryResult> results;
+  for (int i = 0; i <= 100; i += 2) {
+    OdometryResult r;
+    r.t_ns = int64_t{100'000'000} * i;
+    r.times.total_ms = 10.0 + i;
+    r.quality.features_left = 500 + i;
+    r.quality.model_points = i % 4 ? 0 : 2600;
+    results.push_back(r);
+  }
+  const auto rows = frameTimeRows(results, gt);
+  ASSERT_EQ(rows.size(), results.size());
+  EXPECT_NEAR(rows[10].distance_m, 2.0, 1e-9);
+  EXPECT_NEAR(rows.back().distance_m, 10.0, 1e-9);
+  const fs::path dir = fs::temp_directory_path() / "seavio_bench_scaling_csv";
+  fs::create_directories(dir);
+  const std::string csv = (dir / "f.csv").string();
+  writeFrameTimesCsv(csv, rows);
+  const auto back = readFrameTimesCsv(csv);
+  ASSERT_EQ(back.size(), rows.size());
+  EXPECT_EQ(back[7].features, rows[7].features);
+  EXPECT_EQ(back[8].model_points, 2600);
+  EXPECT_NEAR(back[7].total_ms, rows[7].total_ms, 1e-4);
+  // A damaged line is named with its number.
+  {
+    std::ofstream f(csv, std::ios::app);
+    f << "51,10.0,nope,1,1,1,1\n";
+  }
+  const std::string e = errorOf([&] { readFrameTimesCsv(csv); });
+  EXPECT_NE(e.find(csv + ":" + std::to_string(rows.size() + 2)), std::string::npos) << e;
+  EXPECT_NE(errorOf([&] { readFrameTimesCsv((dir / "missing.csv").string()); }).find("missing.csv"), std::string::npos);
+  fs::remove_all(dir);
+}
+
+TEST(BenchScaling, BadOptionsNameTheKey) {
+  ScalingBenchOptions o;
+  EXPECT_NE(errorOf([&] { runScalingBench(o); }).find("--dataset"), std::string::npos);
+  o.frames_csv = "x.csv";
+  o.sweep_frames = 5;
+  EXPECT_NE(errorOf([&] { runScalingBench(o); }).find("--sweep-frames"), std::string::npos);
+  o.sweep_frames = 50;
+  o.targets = {500, 5};
+  EXPECT_NE(errorOf([&] { runScalingBench(o); }).find("--targets"), std::string::npos);
+  PaperBenchOptions p;
+  p.data_dir = "/no/such/folder";
+  p.scale = 0.5;
+  EXPECT_NE(errorOf([&] { runPaperBench(p); }).find("--data"), std::string::npos);
+  p.scale = 1.0;
+  p.out_dir = (fs::temp_directory_path() / "seavio_bench_nodata").string();
+  EXPECT_NE(errorOf([&] { runPaperBench(p); }).find("/no/such/folder/paper-plain"), std::string::npos);
+  fs::remove_all(p.out_dir);
+}
+
+TEST(BenchScaling, TinySweepAndPaperBenchOnRenderedData) {
+  const fs::path dir = fs::temp_directory_path() / "seavio_bench_scaling_tiny";
+  fs::remove_all(dir);
+  // GIVEN a tiny paper-plain rendered the way `seavio simulate` does, into DATA/paper-plain
+  simulate::SimConfig c = scaledPaperConfig("paper-plain", 0.02, 5, 320);
+  c.frames = 20;
+  simulate::writeSequence(c, (dir / "data" / "paper-plain").string(), true);
+  // WHEN bench paper uses it as it is (global only)
+  PaperBenchOptions p;
+  p.data_dir = (dir / "data").string();
+  p.presets = {"paper-plain"};
+  p.variants = {"global"};
+  p.out_dir = (dir / "paper").string();
+  const auto runs = runPaperBench(p);
+  // THEN it ran every frame with memory samples and a per-frame CSV
+  ASSERT_EQ(runs.size(), 1u);
+  EXPECT_EQ(runs[0].frames, 20);
+  ASSERT_FALSE(runs[0].rss.empty());
+  EXPECT_EQ(runs[0].rss.back().frames, 20u);
+  EXPECT_GT(runs[0].rss.back().rss_mb, 1.0);
+  EXPECT_FALSE(fs::exists(dir / "paper" / "paper-plain-scale1-seed1-w640-n3000"));  // nothing rendered
+  ASSERT_TRUE(fs::exists(runs[0].frames_csv));
+  EXPECT_TRUE(fs::exists(dir / "paper" / "global-plain-stats.json"));
+  // AND bench scaling fits that CSV and sweeps two feature targets on a 20-frame sequence
+  ScalingBenchOptions s;
+  s.frames_csv = runs[0].frames_csv;
+  s.targets = {100, 400};
+  s.sweep_frames = 20;
+  s.width_px = 320;
+  s.out_dir = (dir / "scaling").string();
+  const ScalingResult r = runScalingBench(s);
+  EXPECT_EQ(r.frames.size(), 20u);
+  EXPECT_EQ(r.time_vs_frame.n, 19);  // frame 0 only initialises
+  ASSERT_EQ(r.sweep.size(), 2u);
+  EXPECT_GT(r.sweep[1].features.median, r.sweep[0].features.median);
+  EXPECT_GT(r.sweep[0].total_ms.median, 0.0);
+  for (const auto& f : {r.frames_png, r.features_png, r.frames_csv, r.features_csv}) EXPECT_TRUE(fs::exists(f)) << f;
+  std::ostringstream os;
+  printScaling(os, r);
+  EXPECT_NE(os.str().find("ms per 1000 frames"), std::string::npos);
+  EXPECT_NE(os.str().find("ms per 100 features"), std::string::npos);
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace seavio::tools
