@@ -34,6 +34,7 @@
 #include "drivers/lcm/lcm_bus.hpp"
 #include "drivers/lcm/lcm_convert.hpp"
 #include "seavio_lcm/pose_t.hpp"
+#include "tests/drivers/lcm/private_netns.hpp"
 
 extern char** environ;
 
@@ -185,26 +186,6 @@ bool inPrivateNetns() {
   return !e1 && (e2 || self != init);
 }
 
-/// Adds or deletes the 224.0.0.0/4 route on lo of this namespace; "" on success.
-std::string multicastRoute(bool add) {
-  const int fd = socket(AF_INET, SOCK_DGRAM, 0);
-  if (fd < 0) return std::string("socket: ") + std::strerror(errno);
-  rtentry rt{};
-  auto* dst = reinterpret_cast<sockaddr_in*>(&rt.rt_dst);
-  auto* mask = reinterpret_cast<sockaddr_in*>(&rt.rt_genmask);
-  dst->sin_family = AF_INET;
-  dst->sin_addr.s_addr = inet_addr("224.0.0.0");
-  mask->sin_family = AF_INET;
-  mask->sin_addr.s_addr = inet_addr("240.0.0.0");
-  char dev[] = "lo";
-  rt.rt_dev = dev;
-  rt.rt_flags = RTF_UP;
-  const int r = ioctl(fd, add ? SIOCADDRT : SIOCDELRT, &rt);
-  const int err = errno;
-  close(fd);
-  return r == 0 ? "" : std::string(add ? "SIOCADDRT" : "SIOCDELRT") + ": " + std::strerror(err);
-}
-
 TEST(DaemonFaults, LcmPublishFailuresAreCountedAndPublishingResumes) {
   if (!inPrivateNetns()) GTEST_SKIP() << "no private network namespace: the test would change the host's routes";
   // GIVEN a daemon publishing poses over loopback multicast, and a subscriber
@@ -222,7 +203,7 @@ TEST(DaemonFaults, LcmPublishFailuresAreCountedAndPublishingResumes) {
   EXPECT_EQ(d.health().publish_failures.load(), 0u);
 
   // WHEN the multicast route disappears (sendmsg fails with ENETUNREACH)
-  ASSERT_EQ(multicastRoute(false), "");
+  ASSERT_EQ(test::multicastRoute(false), "");
   // THEN every publish fails and is counted, while frames keep being processed
   EXPECT_TRUE(waitFor([&] { return d.health().publish_failures >= 10; }, 10s)) << d.summary();
   const uint64_t processed_during = d.health().frames_processed;
@@ -231,7 +212,7 @@ TEST(DaemonFaults, LcmPublishFailuresAreCountedAndPublishingResumes) {
   EXPECT_EQ(d.statusMessage().publish_failures, static_cast<int64_t>(d.health().publish_failures.load()));
 
   // WHEN the route comes back THEN poses reach the subscriber again
-  ASSERT_EQ(multicastRoute(true), "");
+  ASSERT_EQ(test::multicastRoute(true), "");
   const int before = received;
   const uint64_t published_before = d.health().poses_published;
   EXPECT_TRUE(waitFor([&] { return received > before + 5; }, 10s));

@@ -28,6 +28,28 @@ inline bool writeFile(const std::string& path, const std::string& text) {
   return static_cast<bool>(f);
 }
 
+/// Adds (ip route add 224.0.0.0/4 dev lo) or deletes the multicast route on this namespace's
+/// loopback; "" on success (an existing route counts as added), else why it failed.
+inline std::string multicastRoute(bool add) {
+  const int fd = socket(AF_INET, SOCK_DGRAM, 0);
+  if (fd < 0) return std::string("socket: ") + std::strerror(errno);
+  rtentry rt{};
+  auto* dst = reinterpret_cast<sockaddr_in*>(&rt.rt_dst);
+  auto* mask = reinterpret_cast<sockaddr_in*>(&rt.rt_genmask);
+  dst->sin_family = AF_INET;
+  dst->sin_addr.s_addr = inet_addr("224.0.0.0");
+  mask->sin_family = AF_INET;
+  mask->sin_addr.s_addr = inet_addr("240.0.0.0");
+  char dev[] = "lo";
+  rt.rt_dev = dev;
+  rt.rt_flags = RTF_UP;
+  const int r = ioctl(fd, add ? SIOCADDRT : SIOCDELRT, &rt);
+  const int err = errno;
+  close(fd);
+  if (r == 0 || (add && err == EEXIST)) return "";
+  return std::string(add ? "SIOCADDRT" : "SIOCDELRT") + " 224.0.0.0/4 dev lo: " + std::strerror(err);
+}
+
 /// Returns "" on success, else why it failed. Call before starting any thread.
 inline std::string enterPrivateMulticastNetns() {
   const uid_t uid = getuid();
@@ -55,22 +77,8 @@ inline std::string enterPrivateMulticastNetns() {
     close(fd);
     return std::string("SIOCSIFFLAGS lo up: ") + std::strerror(errno);
   }
-  // ip route add 224.0.0.0/4 dev lo
-  rtentry rt{};
-  auto* dst = reinterpret_cast<sockaddr_in*>(&rt.rt_dst);
-  auto* mask = reinterpret_cast<sockaddr_in*>(&rt.rt_genmask);
-  dst->sin_family = AF_INET;
-  dst->sin_addr.s_addr = inet_addr("224.0.0.0");
-  mask->sin_family = AF_INET;
-  mask->sin_addr.s_addr = inet_addr("240.0.0.0");
-  char dev[] = "lo";
-  rt.rt_dev = dev;
-  rt.rt_flags = RTF_UP;
-  const int r = ioctl(fd, SIOCADDRT, &rt);
-  const int err = errno;
   close(fd);
-  if (r != 0 && err != EEXIST) return std::string("SIOCADDRT 224.0.0.0/4 dev lo: ") + std::strerror(err);
-  return "";
+  return multicastRoute(true);
 }
 
 /// Enters the namespace before any test of the binary runs (register it once per binary
