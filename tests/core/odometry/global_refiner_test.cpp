@@ -14,6 +14,7 @@
 #include "core/imu/imu_integrator.hpp"
 #include "core/odometry/odometry.hpp"
 #include "tests/core/odometry/downward_rig.hpp"
+#include "tests/core/odometry/floor_frame.hpp"
 
 namespace seavio::odometry {
 namespace {
@@ -69,31 +70,7 @@ struct Survey {
 
   FrameFeatures frame(uint64_t seq, double t, const Eigen::Isometry3d& T_W_B, double pixel_sigma) {
     std::normal_distribution<double> pix(0.0, pixel_sigma);
-    const Eigen::Isometry3d T_R0_W = (T_W_B * rig.T_B_R0).inverse();
-    FrameFeatures ff;
-    ff.t_ns = static_cast<int64_t>(std::llround(t * 1e9));
-    ff.seq = seq;
-    std::vector<int> rows;
-    for (int i = 0; i < static_cast<int>(world.size()); ++i) {
-      const Eigen::Vector3d p = T_R0_W * world[i];
-      const Eigen::Vector2d l = rig.project(p, 0), r = rig.project(p, 1);
-      if (l.x() < 5 || l.y() < 5 || r.x() < 5 || l.x() > 634 || l.y() > 474) continue;
-      matching::StereoPoint sp;
-      sp.left_index = sp.right_index = static_cast<int>(rows.size());
-      sp.uv_left = Eigen::Vector2f(float(l.x() + pix(rng)), float(l.y() + pix(rng)));
-      sp.uv_right = Eigen::Vector2f(float(r.x() + pix(rng)), sp.uv_left.y());
-      sp.p_R0 = rig.triangulate(sp.uv_left.cast<double>(), double(sp.uv_left.x() - sp.uv_right.x())).cast<float>();
-      ff.stereo.points.push_back(sp);
-      ff.left.keypoints.emplace_back(sp.uv_left.x(), sp.uv_left.y(), 9.f);
-      rows.push_back(i);
-    }
-    ff.stereo.descriptors.create(static_cast<int>(rows.size()), 64, CV_32F);
-    for (std::size_t k = 0; k < rows.size(); ++k)
-      world_desc.row(rows[k]).copyTo(ff.stereo.descriptors.row(static_cast<int>(k)));
-    ff.stereo.laplacian_sign.assign(rows.size(), 1);
-    ff.left.descriptors = ff.stereo.descriptors;
-    ff.right = ff.left;
-    return ff;
+    return test::floorFrame(rig, world, world_desc, T_W_B, seq, static_cast<int64_t>(std::llround(t * 1e9)), pix, rng);
   }
 };
 

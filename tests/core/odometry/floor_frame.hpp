@@ -1,0 +1,49 @@
+#pragma once
+// Test helper: the stereo features a rig at T_W_B sees of a synthetic floor of world points,
+// with exact stereo geometry, pixel noise and each point's fixed descriptor, as the front end
+// would hand them to Odometry::track.
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include "core/camera/rectified_rig.hpp"
+#include "core/odometry/frontend.hpp"
+
+namespace seavio::odometry::test {
+
+/// @param world_W floor points in W; @param world_desc one 64-float descriptor row per point
+/// @param pix pixel noise [px], drawn from `rng` in point order (u_left, v_left, u_right)
+inline FrameFeatures floorFrame(const camera::RectifiedRig& rig, const std::vector<Eigen::Vector3d>& world_W,
+                                const cv::Mat& world_desc, const Eigen::Isometry3d& T_W_B, uint64_t seq,
+                                int64_t t_ns, std::normal_distribution<double>& pix, std::mt19937& rng) {
+  const Eigen::Isometry3d T_R0_W = (T_W_B * rig.T_B_R0).inverse();
+  FrameFeatures ff;
+  ff.t_ns = t_ns;
+  ff.seq = seq;
+  std::vector<int> rows;
+  for (int i = 0; i < static_cast<int>(world_W.size()); ++i) {
+    const Eigen::Vector3d p = T_R0_W * world_W[static_cast<std::size_t>(i)];
+    const Eigen::Vector2d l = rig.project(p, 0), r = rig.project(p, 1);
+    if (l.x() < 5 || l.y() < 5 || r.x() < 5 || l.x() > 634 || l.y() > 474) continue;
+    matching::StereoPoint sp;
+    sp.left_index = sp.right_index = static_cast<int>(rows.size());
+    sp.uv_left = Eigen::Vector2f(float(l.x() + pix(rng)), float(l.y() + pix(rng)));
+    sp.uv_right = Eigen::Vector2f(float(r.x() + pix(rng)), sp.uv_left.y());
+    sp.p_R0 = rig.triangulate(sp.uv_left.cast<double>(), double(sp.uv_left.x() - sp.uv_right.x())).cast<float>();
+    ff.stereo.points.push_back(sp);
+    ff.left.keypoints.emplace_back(sp.uv_left.x(), sp.uv_left.y(), 9.f);
+    rows.push_back(i);
+  }
+  ff.stereo.descriptors.create(static_cast<int>(rows.size()), 64, CV_32F);
+  for (std::size_t k = 0; k < rows.size(); ++k)
+    world_desc.row(rows[k]).copyTo(ff.stereo.descriptors.row(static_cast<int>(k)));
+  ff.stereo.laplacian_sign.assign(rows.size(), 1);
+  ff.left.descriptors = ff.stereo.descriptors;
+  ff.right = ff.left;
+  return ff;
+}
+
+}  // namespace seavio::odometry::test
