@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include <opencv2/imgproc.hpp>
+#include <spdlog/spdlog.h>
 
 #include "daemon/timestamp_monitor.hpp"
 #include "drivers/lcm/lcm_convert.hpp"
@@ -89,6 +90,16 @@ bool Daemon::start() {
     error_ = "LCM provider '" + cfg_.lcm.url + "' cannot be opened (multicast route?)";
     return false;
   }
+  bg_bus_ = bus_.get();
+  if (cfg_.lcm.url.rfind("file://", 0) != 0) {
+    background_bus_ = std::make_unique<drivers::LcmBus>(cfg_.lcm.url);
+    if (!background_bus_->good()) {
+      error_ = "LCM provider '" + cfg_.lcm.url + "' cannot be opened a second time (status, refined poses)";
+      return false;
+    }
+    bg_bus_ = background_bus_.get();
+  }
+  if (cfg_.realtime.lock_memory) noteScheduling(lockAllMemory());
   frames_ = std::make_unique<FrameRing<FrameItem>>(cfg_.rings.camera_frames);
   imu_ = std::make_unique<SpscRing<ImuSample>>(cfg_.rings.imu_samples);
   poses_ = std::make_unique<SpscRing<PoseItem>>(cfg_.rings.poses);
@@ -102,6 +113,11 @@ bool Daemon::start() {
     return false;
   }
   pool_ = std::make_unique<WorkerPool>(static_cast<std::size_t>(cfg_.worker_threads));
+  // Workers prepare the frame's images and extract the right image's features: frame path.
+  if (!pool_->runOnEachThread([this] { scheduleThisThread(ThreadRole::kFramePath, "image worker"); }) ||
+      !processor_->runOnWorkerThreads([this] { scheduleThisThread(ThreadRole::kFramePath, "feature worker"); })) {
+    noteScheduling({false, "worker threads: scheduling not applied to every worker in time"});
+  }
   start_ns_ = monotonicNowNs();
   imu_ended_ = imu_src_ == nullptr;
   stop_acq_ = false;
@@ -161,7 +177,33 @@ uint64_t Daemon::accountedFrames() const {
          health_.processing_failures;
 }
 
+void Daemon::scheduleThisThread(ThreadRole role, const std::string& name) {
+  noteScheduling(applyThreadRole(role, cfg_.realtime, name));
+}
+
+void Daemon::noteScheduling(const SchedulingOutcome& outcome) {
+  if (outcome.ok) {
+    spdlog::info("scheduling: {}", outcome.message);
+  } else {
+    spdlog::warn("scheduling: {}", outcome.message);
+  }
+  const std::lock_guard<std::mutex> lock(sched_mutex_);
+  sched_report_.push_back(outcome.message);
+  sched_ok_ = sched_ok_ && outcome.ok;
+}
+
+std::vector<std::string> Daemon::schedulingReport() const {
+  const std::lock_guard<std::mutex> lock(sched_mutex_);
+  return sched_report_;
+}
+
+bool Daemon::schedulingOk() const {
+  const std::lock_guard<std::mutex> lock(sched_mutex_);
+  return sched_ok_;
+}
+
 void Daemon::cameraLoop() {
+  scheduleThisThread(ThreadRole::kFramePath, "camera");
   TimestampMonitor stamps(static_cast<int64_t>(cfg_.frame_gap_ms) * 1'000'000);
   bool have_seq = false;
   uint64_t last_seq = 0;
@@ -202,6 +244,7 @@ void Daemon::cameraLoop() {
 }
 
 void Daemon::imuLoop() {
+  scheduleThisThread(ThreadRole::kFramePath, "imu");
   TimestampMonitor stamps(static_cast<int64_t>(cfg_.imu_gap_ms) * 1'000'000);
   while (!stop_acq_) {
     ImuSample s;
@@ -229,6 +272,7 @@ void Daemon::imuLoop() {
 }
 
 void Daemon::collectImu(int64_t up_to_ns, bool wait) {
+  const int64_t hold_ns = static_cast<int64_t>(cfg_.imu_hold_ms) * 1'000'000;
   const int64_t deadline = monotonicNowNs() + static_cast<int64_t>(cfg_.imu_wait_ms) * 1'000'000;
   ImuSample s;
   for (;;) {
@@ -237,6 +281,8 @@ void Daemon::collectImu(int64_t up_to_ns, bool wait) {
       imu_pending_.push_back(s);
     }
     if (!wait || last_imu_ns_ > up_to_ns || stop_pipeline_ || imu_ended_) break;
+    // Close enough: the odometry holds the newest sample's rates over the remaining gap.
+    if (hold_ns > 0 && last_imu_ns_ > 0 && last_imu_ns_ >= up_to_ns - hold_ns) break;
     const int64_t now = monotonicNowNs();
     if (now >= deadline) break;
     if (imu_->popWaitFor(s, std::chrono::nanoseconds(std::min<int64_t>(deadline - now, 5'000'000)))) {
@@ -295,6 +341,7 @@ void Daemon::estimate(FrameItem& item) {
   const int64_t t0 = monotonicNowNs();
   health_.at(Stage::kQueue).record(msBetween(item.recv_ns, t0));
   collectImu(item.frame.t_ns, true);
+  health_.at(Stage::kImuWait).record(msBetween(t0, monotonicNowNs()));
   OdometryResult r;
   try {
     prepare(item.frame);
@@ -329,6 +376,7 @@ void Daemon::estimate(FrameItem& item) {
 }
 
 void Daemon::estimatorLoop() {
+  scheduleThisThread(ThreadRole::kFramePath, "estimator");
   while (!stop_pipeline_) {
     const bool ended = camera_ended_;
     FrameItem item;
@@ -371,6 +419,7 @@ void Daemon::publishPose(PoseItem& p) {
 }
 
 void Daemon::publisherLoop() {
+  scheduleThisThread(ThreadRole::kFramePath, "publisher");
   for (;;) {
     const bool est_done = estimator_done_;
     PoseItem p;
@@ -391,6 +440,9 @@ void Daemon::maybeFinish() {
 }
 
 void Daemon::globalLoop() {
+  // The map step may be a frame or two late (its correction reaches later frames); it must
+  // never delay a frame's local pose by taking its core.
+  scheduleThisThread(ThreadRole::kBackground, "global ICP");
   while (!stop_global_) {
     const bool est_done = estimator_done_;
     GlobalStage::Job job;
@@ -445,7 +497,7 @@ void Daemon::publishRefined(const OdometryResult& r, int64_t recv_ns, int64_t pr
   seavio_lcm::pose_t msg = drivers::toPoseMsg(r, now);
   msg.flags = (msg.flags & ~kMapFlags) | kGlobalRefined;
   drivers::setPoseTiming(msg, r.times, recv_ns, proc_end_ns, now);
-  if (!bus_->publish(cfg_.lcm.pose_channel, msg)) {
+  if (!bg_bus_->publish(cfg_.lcm.pose_channel, msg)) {
     health_.publish_failures++;
     return;
   }
@@ -567,6 +619,7 @@ std::string Daemon::summary() const {
 }
 
 void Daemon::statusLoop() {
+  scheduleThisThread(ThreadRole::kBackground, "status");
   const auto wd = notifier_->watchdogPeriod();
   const int64_t wd_every_ns = wd.count() > 0 ? wd.count() * 1000 / 2 : 0;
   const int64_t status_every_ns = static_cast<int64_t>(cfg_.status_period_ms) * 1'000'000;
@@ -597,7 +650,7 @@ void Daemon::statusLoop() {
       last_poses = p;
       last_imu = s;
       last_t = now;
-      if (!bus_->publish(cfg_.lcm.status_channel, statusMessage())) health_.publish_failures++;
+      if (!bg_bus_->publish(cfg_.lcm.status_channel, statusMessage())) health_.publish_failures++;
       notifier_->notify("STATUS=" + shortStatus());
     }
   }

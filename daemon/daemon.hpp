@@ -15,6 +15,7 @@
 /// or counted as a processing failure: see accountedFrames().
 #include <atomic>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <random>
 #include <string>
@@ -26,6 +27,7 @@
 #include "daemon/frame_processor.hpp"
 #include "daemon/health.hpp"
 #include "daemon/notifier.hpp"
+#include "daemon/realtime.hpp"
 #include "daemon/spsc_ring.hpp"
 #include "daemon/worker_pool.hpp"
 #include "drivers/lcm/lcm_bus.hpp"
@@ -124,6 +126,11 @@ class Daemon {
   std::string summary() const;
   /// One-line summary for sd_notify STATUS=.
   std::string shortStatus() const;
+  /// How each thread was scheduled (daemon.realtime, issue 8), one entry per thread or
+  /// worker as it started: "estimator: SCHED_FIFO 10", or why a setting was refused.
+  std::vector<std::string> schedulingReport() const;
+  /// False if any requested scheduling or memory lock was refused (see schedulingReport()).
+  bool schedulingOk() const;
 
  private:
   struct FrameItem {
@@ -149,6 +156,9 @@ class Daemon {
   void refineJob(GlobalStage::Job& job);
   void publishRefined(const OdometryResult& r, int64_t recv_ns, int64_t proc_end_ns);
   void maybeFinish();
+  /// Applies `role` to the calling thread and records the outcome.
+  void scheduleThisThread(ThreadRole role, const std::string& name);
+  void noteScheduling(const SchedulingOutcome& outcome);
 
   DaemonConfig cfg_;
   std::unique_ptr<drivers::CameraSource> camera_;
@@ -156,6 +166,11 @@ class Daemon {
   std::unique_ptr<FrameProcessor> processor_;
   std::unique_ptr<Notifier> notifier_;
   std::unique_ptr<drivers::LcmBus> bus_;
+  /// Status and refined poses (background threads) go out on their own LCM instance, so a
+  /// background thread preempted inside LCM's publish lock never holds up a frame's pose;
+  /// the same as bus_ for a file:// output (one writer per file).
+  std::unique_ptr<drivers::LcmBus> background_bus_;
+  drivers::LcmBus* bg_bus_ = nullptr;
   std::unique_ptr<FrameRing<FrameItem>> frames_;
   std::unique_ptr<SpscRing<ImuSample>> imu_;
   std::unique_ptr<SpscRing<PoseItem>> poses_;
@@ -176,6 +191,9 @@ class Daemon {
   std::atomic<bool> ready_sent_{false};
   std::atomic<int64_t> start_ns_{0};
   std::string error_;
+  mutable std::mutex sched_mutex_;
+  std::vector<std::string> sched_report_;
+  bool sched_ok_ = true;
 
   // Estimator-thread state.
   std::vector<ImuSample> imu_pending_;

@@ -181,6 +181,10 @@ void validateDaemonConfig(const DaemonConfig& c, const std::string& origin,
   range("imu_gap_ms", c.imu_gap_ms, 1, 10000);
   range("frame_gap_ms", c.frame_gap_ms, 1, 60000);
   range("imu_wait_ms", c.imu_wait_ms, 0, 1000);
+  range("imu_hold_ms", c.imu_hold_ms, 0, 100);
+  // 99 is left to the kernel's own real-time threads (watchdog, migration).
+  range("realtime.priority", c.realtime.priority, 0, 98);
+  range("realtime.background_nice", c.realtime.background_nice, 0, 19);
   if (c.camera_imu_time_offset_ns < -1'000'000'000LL || c.camera_imu_time_offset_ns > 1'000'000'000LL) {
     err("camera_imu_time_offset_ns", "must be within +-1 s");
   }
@@ -205,7 +209,7 @@ DaemonConfigResult parseDaemonConfig(const std::string& yaml_text, const std::st
   r.onlyKeys(d, "daemon",
              {"processor", "calibration_dataset", "camera", "imu", "lcm", "rings", "threads", "watchdog_stall_ms", "status_period_ms",
               "camera_imu_time_offset_ns", "imu_gap_ms", "frame_gap_ms", "drain_to_newest",
-              "backpressure", "imu_wait_ms", "global_thread"});
+              "backpressure", "imu_wait_ms", "imu_hold_ms", "global_thread", "realtime"});
   if (!d.IsMap()) return res;
 
   r.get(d, "daemon", "processor", c.processor);
@@ -293,8 +297,15 @@ DaemonConfigResult parseDaemonConfig(const std::string& yaml_text, const std::st
   r.get(d, "daemon", "frame_gap_ms", c.frame_gap_ms);
   r.get(d, "daemon", "drain_to_newest", c.drain_to_newest);
   r.get(d, "daemon", "imu_wait_ms", c.imu_wait_ms);
+  r.get(d, "daemon", "imu_hold_ms", c.imu_hold_ms);
   r.get(d, "daemon", "backpressure", c.backpressure);
   r.get(d, "daemon", "global_thread", c.global_thread);
+
+  const YAML::Node rt = d["realtime"];
+  r.onlyKeys(rt, "daemon.realtime", {"priority", "background_nice", "lock_memory"});
+  r.get(rt, "daemon.realtime", "priority", c.realtime.priority);
+  r.get(rt, "daemon.realtime", "background_nice", c.realtime.background_nice);
+  r.get(rt, "daemon.realtime", "lock_memory", c.realtime.lock_memory);
 
   validateDaemonConfig(c, origin, res.errors);
   return res;
@@ -361,7 +372,11 @@ std::string describe(const DaemonConfig& c) {
     << "daemon.drain_to_newest = " << (c.drain_to_newest ? "true" : "false") << "\n"
     << "daemon.backpressure = " << (c.backpressure ? "true" : "false") << "\n"
     << "daemon.imu_wait_ms = " << c.imu_wait_ms << "\n"
-    << "daemon.global_thread = " << (c.global_thread ? "true" : "false") << "\n";
+    << "daemon.imu_hold_ms = " << c.imu_hold_ms << "\n"
+    << "daemon.global_thread = " << (c.global_thread ? "true" : "false") << "\n"
+    << "daemon.realtime.priority = " << c.realtime.priority << "\n"
+    << "daemon.realtime.background_nice = " << c.realtime.background_nice << "\n"
+    << "daemon.realtime.lock_memory = " << (c.realtime.lock_memory ? "true" : "false") << "\n";
   return o.str();
 }
 

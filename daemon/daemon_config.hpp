@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "daemon/realtime.hpp"
 #include "daemon/ring_capacities.hpp"
 
 namespace seavio::daemon {
@@ -106,11 +107,19 @@ struct DaemonConfig {
   bool backpressure = false;
   /// How long the estimator waits for IMU samples to reach a frame's time [ms].
   int imu_wait_ms = 20;
+  /// The estimator waits for the first IMU sample after a frame (the odometry interpolates
+  /// at the frame time) unless the newest sample is at most this much older than the frame
+  /// [ms]; then the odometry holds that sample's rates up to the frame time. 0 = always wait
+  /// (deterministic replay: the same IMU hand-over as `seavio run`). Live with a 200 Hz IMU,
+  /// 5 saves up to 5 ms of every frame's latency (issue 8; cost in docs/benchmarks.md).
+  int imu_hold_ms = 0;
   /// Odometry mode global only: run the global step (revisit re-observation, ICP against the
   /// map, keyframe insertion) on its own thread (issue 8). The local pose of every frame goes
   /// out at once flagged FLAG_LOCAL_ONLY, the refined one when the ICP thread is done, flagged
   /// FLAG_GLOBAL_REFINED (same seq). false: inline in the estimator, one pose per frame.
   bool global_thread = true;
+  /// Thread scheduling and memory locking of the frame path (issue 8, daemon/realtime.hpp).
+  RealtimeConfig realtime;
 };
 
 struct DaemonConfigResult {

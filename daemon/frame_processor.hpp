@@ -2,6 +2,7 @@
 /// The estimator stage's view of the odometry: one call per stereo frame with the IMU
 /// samples since the previous frame. The daemon owns threads and rings; the processor owns
 /// the estimation (core::odometry in production, simple processors in tests).
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -21,6 +22,12 @@ class FrameProcessor {
   ///        on the camera clock
   virtual OdometryResult process(const StereoFrame& frame, std::span<const ImuSample> imu) = 0;
   virtual std::string name() const = 0;
+  /// Runs `fn` once on each thread the processor owns (none by default), so the daemon can
+  /// give its workers the frame path's scheduling (issue 8). False if that failed.
+  virtual bool runOnWorkerThreads(const std::function<void()>& fn) {
+    (void)fn;
+    return true;
+  }
 };
 
 /// Vision-free fallback: strapdown integration of the IMU from the world origin at rest,

@@ -19,16 +19,20 @@ namespace seavio::daemon {
 /// "global_queue" request submitted to refinement start, "global" the refinement itself,
 /// "refined_end_to_end" acquisition to the refined pose's publication and
 /// "refined_capture_to_publish" its capture stamp to publication (same clock condition).
+/// "imu_wait": inside "process", the estimator waiting for the IMU samples that reach the
+/// frame's time (issue 8: at 200 Hz up to 5 ms of every frame, see DaemonConfig::imu_hold_ms).
 enum class Stage : int {
   kRectify, kFeatures, kStereo, kTemporal, kTensor, kIcp,
   kQueue, kProcess, kPublish, kEndToEnd, kCaptureToPublish,
   kGlobalQueue, kGlobal, kRefinedEndToEnd, kRefinedCaptureToPublish,
+  kImuWait,
   kCount
 };
 inline constexpr std::array<std::string_view, static_cast<int>(Stage::kCount)> kStageNames = {
     "rectify", "features", "stereo", "temporal", "tensor", "icp",
     "queue", "process", "publish", "end_to_end", "capture_to_publish",
-    "global_queue", "global", "refined_end_to_end", "refined_capture_to_publish"};
+    "global_queue", "global", "refined_end_to_end", "refined_capture_to_publish",
+    "imu_wait"};
 
 struct HealthCounters {
   std::atomic<uint64_t> frames_in{0};           ///< accepted into the camera ring or dropped there

@@ -45,9 +45,12 @@ class OdometryProcessor : public FrameProcessor {
   /// Output identical for any `feature_threads`: only the order of independent work changes.
   OdometryResult process(const StereoFrame& frame, std::span<const ImuSample> imu) override {
     if (!pool_) return odo_.process(frame, imu);
-    return odo_.track(extractParallel(frame), imu);
+    // Into the buffers of an earlier frame, which track() hands back (issue 8).
+    extractParallel(frame, spare_);
+    return odo_.track(std::move(spare_), imu);
   }
   std::string name() const override { return "stereo-odometry"; }
+  bool runOnWorkerThreads(const std::function<void()>& fn) override { return !pool_ || pool_->runOnEachThread(fn); }
 
   /// Takes `odo` as it is (its clock included).
   explicit OdometryProcessor(odometry::Odometry odo, std::size_t feature_threads = 2) : odo_(std::move(odo)) {
@@ -69,21 +72,24 @@ class OdometryProcessor : public FrameProcessor {
   }
 
  private:
-  odometry::FrameFeatures extractParallel(const StereoFrame& frame) {
+  void extractParallel(const StereoFrame& frame, odometry::FrameFeatures& f) {
     const odometry::Frontend& frontend = odo_.frontend();
-    odometry::FrameFeatures f;
+    f.times = StageTimes{};
     f.t_ns = frame.t_ns;
     f.seq = frame.seq;
     f.detector_threshold = odo_.detectorThreshold();
     StageTimer timer(now_);
-    frontend.rectify(frame, left_rect_, right_rect_);
+    frontend.rectify(frame, ws_);
+    const cv::Mat& left_rect = ws_.left_rect;
+    const cv::Mat& right_rect = ws_.right_rect;
     f.times.rectify_ms = timer.lap_ms();
-    // Frontend::detect is const and stateless, so both images may be described at once.
+    // Frontend::detect is const; each side has its own SURF workspace, so both images may be
+    // described at once.
     const double threshold = f.detector_threshold;
     std::optional<std::future<void>> right_done =
-        pool_->submit([&] { f.right = frontend.detect(right_rect_, threshold); });
+        pool_->submit([&] { f.right = frontend.detect(right_rect, threshold, ws_.surf_right); });
     try {
-      f.left = frontend.detect(left_rect_, threshold);
+      f.left = frontend.detect(left_rect, threshold, ws_.surf_left);
     } catch (...) {
       // The job refers to `f` and the images: it must finish before they go out of scope.
       if (right_done) right_done->wait();
@@ -93,17 +99,17 @@ class OdometryProcessor : public FrameProcessor {
       right_done->get();  // rethrows the worker's exception, if any
       ++parallel_frames_;
     } else {
-      f.right = frontend.detect(right_rect_, threshold);
+      f.right = frontend.detect(right_rect, threshold, ws_.surf_right);
     }
     f.times.features_ms = timer.lap_ms();
-    f.stereo = frontend.matchStereo(f.left, f.right);
+    frontend.matchStereo(f.left, f.right, ws_, f.stereo);
     f.times.stereo_ms = timer.lap_ms();
-    return f;
   }
 
   odometry::Odometry odo_;
   std::unique_ptr<WorkerPool> pool_;  ///< one persistent worker; null when sequential
-  cv::Mat left_rect_, right_rect_;    ///< reused across frames (no per-frame allocation)
+  odometry::FrontendWorkspace ws_;    ///< rectified images and filter buffers, reused across frames
+  odometry::FrameFeatures spare_;     ///< an earlier frame's buffers, refilled each frame
   std::size_t parallel_frames_ = 0;
   const NowNsFn now_ = steadyNowNs;   ///< stage times of the parallel path
 };

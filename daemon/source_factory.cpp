@@ -1,8 +1,6 @@
 #include "daemon/source_factory.hpp"
 
-#include <mutex>
-
-#include "daemon/health.hpp"
+#include "daemon/fault_counting_source.hpp"
 #include "daemon/paced_source.hpp"
 #include "drivers/dataset/dataset.hpp"
 #include "drivers/dataset/dataset_source.hpp"
@@ -28,48 +26,6 @@ const std::string& lcmInputUrl(const DaemonConfig& cfg) {
   return cfg.lcm.input_url.empty() ? cfg.lcm.url : cfg.lcm.input_url;
 }
 
-/// Forwards to a driver and keeps a copy of its fault counters, taken on the reading
-/// thread after every call, so the status thread never touches the driver itself.
-template <class Source, class Sample, class Driver>
-class Reporting final : public Source, public FaultReporter {
- public:
-  using Fold = DriverFaults (*)(const Driver&);
-  Reporting(std::unique_ptr<Driver> d, Fold fold) : d_(std::move(d)), fold_(fold) {}
-  bool start() override {
-    const bool ok = d_->start();
-    snapshot();
-    return ok;
-  }
-  drivers::ReadStatus read(Sample& out, std::chrono::milliseconds timeout) override {
-    const drivers::ReadStatus st = d_->read(out, timeout);
-    snapshot();
-    return st;
-  }
-  void stop() override { d_->stop(); }
-  std::string lastError() const override { return d_->lastError(); }
-  std::string name() const override { return d_->name(); }
-  DriverFaults faults() const override {
-    std::lock_guard<std::mutex> lock(m_);
-    return snap_;
-  }
-
- private:
-  void snapshot() {
-    const DriverFaults f = fold_(*d_);
-    std::lock_guard<std::mutex> lock(m_);
-    snap_ = f;
-  }
-  std::unique_ptr<Driver> d_;
-  Fold fold_;
-  mutable std::mutex m_;
-  DriverFaults snap_;
-};
-
-template <class Driver>
-using ReportingCamera = Reporting<drivers::CameraSource, StereoFrame, Driver>;
-template <class Driver>
-using ReportingImu = Reporting<drivers::ImuSource, ImuSample, Driver>;
-
 /// Camera drivers get the daemon's camera-to-IMU offset nowhere: the daemon adds
 /// `camera_imu_time_offset_ns` to every frame itself, once for all drivers.
 std::unique_ptr<drivers::CameraSource> makeLiveCamera(const DaemonConfig& cfg, std::string& error) {
@@ -91,17 +47,7 @@ std::unique_ptr<drivers::CameraSource> makeLiveCamera(const DaemonConfig& cfg, s
     a.reconnect_after_ms = c.aravis.reconnect_after_ms;
     a.clock.init_samples = c.aravis.clock_init_frames;
     a.clock.time_offset_ns = 0;
-    return std::make_unique<ReportingCamera<drivers::AravisCameraSource>>(
-        std::make_unique<drivers::AravisCameraSource>(a), [](const drivers::AravisCameraSource& s) {
-          const drivers::AravisFaults& f = s.faults();
-          DriverFaults d;
-          d.camera_reconnects = f.reconnects;
-          d.camera_unpaired_frames = f.unpaired_frames;
-          d.camera_lost_frames = f.frames_dropped - f.unpaired_frames;
-          d.camera_corrupt_frames = f.corrupt_frames;
-          d.timestamp_jumps = f.timestamp_jumps;
-          return d;
-        });
+    return withFaultCounting(std::make_unique<drivers::AravisCameraSource>(a));
   }
 #endif
 #ifdef SEAVIO_HAVE_LIBCAMERA
@@ -112,14 +58,7 @@ std::unique_ptr<drivers::CameraSource> makeLiveCamera(const DaemonConfig& cfg, s
     l.height = c.height;
     l.n_buffers = c.buffers;
     l.time_offset_ns = 0;
-    return std::make_unique<ReportingCamera<drivers::LibcameraCameraSource>>(
-        std::make_unique<drivers::LibcameraCameraSource>(l), [](const drivers::LibcameraCameraSource& s) {
-          const drivers::LibcameraFaults f = s.faults();
-          DriverFaults d;
-          d.camera_lost_frames = f.frames_dropped;
-          d.camera_corrupt_frames = f.corrupt_frames;
-          return d;
-        });
+    return withFaultCounting(std::make_unique<drivers::LibcameraCameraSource>(l));
   }
 #endif
   if (c.driver == "v4l2") {
@@ -131,15 +70,7 @@ std::unique_ptr<drivers::CameraSource> makeLiveCamera(const DaemonConfig& cfg, s
     v.frame_rate_hz = c.frame_rate_hz;
     v.n_buffers = c.buffers;
     v.clock.time_offset_ns = 0;
-    return std::make_unique<ReportingCamera<drivers::V4l2CameraSource>>(
-        std::make_unique<drivers::V4l2CameraSource>(v), [](const drivers::V4l2CameraSource& s) {
-          const drivers::V4l2Faults& f = s.faults();
-          DriverFaults d;
-          d.camera_lost_frames = f.frames_dropped;
-          d.camera_corrupt_frames = f.corrupt_frames;
-          d.timestamp_jumps = f.timestamp_jumps;
-          return d;
-        });
+    return withFaultCounting(std::make_unique<drivers::V4l2CameraSource>(v));
   }
   error = "daemon.camera.driver: '" + c.driver + "' is not built into this seaviod";
   return nullptr;
@@ -183,17 +114,7 @@ Sources makeSources(const DaemonConfig& cfg) {
     sc.device = cfg.imu.device;
     sc.baud = cfg.imu.baud;
     sc.configure_rate_divisor = cfg.imu.rate_divisor;
-    out.imu = std::make_unique<ReportingImu<drivers::SerialImuSource>>(
-        std::make_unique<drivers::SerialImuSource>(sc), [](const drivers::SerialImuSource& s) {
-          const drivers::SerialImuFaults& f = s.faults();
-          DriverFaults d;
-          d.imu_checksum_errors = f.checksum_errors;
-          d.imu_garbage_bytes = f.garbage_bytes + f.unsupported_packets;
-          d.imu_partial_packets = f.partial_packets;
-          d.imu_reconnects = f.reconnects;
-          d.timestamp_jumps = f.timestamp_jumps;
-          return d;
-        });
+    out.imu = withFaultCounting(std::make_unique<drivers::SerialImuSource>(sc));
   } else if (cfg.imu.driver == "can") {
     // The profile is a file: read and checked here, before any device is opened.
     std::string why;
@@ -206,16 +127,7 @@ Sources makeSources(const DaemonConfig& cfg) {
     cc.profile = *profile;
     cc.interface = cfg.imu.interface;
     cc.candump_log = cfg.imu.candump_log;
-    out.imu = std::make_unique<ReportingImu<drivers::CanImuSource>>(
-        std::make_unique<drivers::CanImuSource>(cc), [](const drivers::CanImuSource& s) {
-          const drivers::CanImuFaults& f = s.faults();
-          DriverFaults d;
-          d.imu_bus_errors = f.can_error_frames + f.bus_off + f.unknown_ids + f.short_frames + f.incomplete_samples +
-                             f.malformed_log_lines;
-          d.imu_partial_packets = f.partial_packets;
-          d.timestamp_jumps = f.timestamp_jumps;
-          return d;
-        });
+    out.imu = withFaultCounting(std::make_unique<drivers::CanImuSource>(cc));
   }
   if (!out.camera) out.error = "daemon.camera.driver: '" + cfg.camera.driver + "' unknown";
   return out;

@@ -12,6 +12,8 @@
 #include <deque>
 #include <functional>
 #include <future>
+#include <latch>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <thread>
@@ -56,6 +58,33 @@ class WorkerPool {
     for (auto& t : threads_) {
       if (t.joinable()) t.join();
     }
+  }
+
+  /// Runs `fn` once on every worker thread (e.g. to set its scheduling policy, which only
+  /// the thread itself can do for all policies) and waits up to `timeout` for all of them.
+  /// Each job holds its worker until every worker has started one, so no worker runs two.
+  /// False if the queue refused a job or the workers did not all get there in time.
+  bool runOnEachThread(const std::function<void()>& fn,
+                       std::chrono::milliseconds timeout = std::chrono::milliseconds(2000)) {
+    const auto n = static_cast<std::ptrdiff_t>(threads_.size());
+    // Shared with the jobs: a job still waiting after a timeout must not outlive it.
+    auto all_started = std::make_shared<std::latch>(n);
+    std::vector<std::future<void>> done;
+    for (std::ptrdiff_t i = 0; i < n; ++i) {
+      auto fut = submit([fn, all_started, timeout] {
+        fn();
+        all_started->count_down();
+        // Bounded hold: a worker busy elsewhere never hangs this one.
+        const auto until = std::chrono::steady_clock::now() + timeout;
+        while (!all_started->try_wait() && std::chrono::steady_clock::now() < until)
+          std::this_thread::sleep_for(std::chrono::microseconds(200));
+      });
+      if (!fut) return false;
+      done.push_back(std::move(*fut));
+    }
+    bool ok = true;
+    for (auto& f : done) ok = f.wait_for(timeout + std::chrono::milliseconds(100)) == std::future_status::ready && ok;
+    return ok && all_started->try_wait();
   }
 
   std::size_t threadCount() const { return threads_.size(); }

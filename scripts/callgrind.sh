@@ -7,6 +7,9 @@
 # functions of each (callgrind_annotate).
 #   scripts/callgrind.sh                     all stages: surf_detect surf_describe ransac icp frame frame2
 #   scripts/callgrind.sh ransac icp          only these
+#   scripts/callgrind.sh steady steady2      allocations and Ir per frame in steady state: the
+#                                            frame (frame2) path over STEADY_FRAMES consecutive
+#                                            frames (default 5) after STEADY_WARMUP (default 8)
 # Environment: SEAVIO_BUILD_DIR (default build), SEAVIO_JOBS (default 2), OUT (default
 # callgrind-results/), TOP (functions listed per stage, default 8).
 set -euo pipefail
@@ -40,7 +43,30 @@ count_allocs() {
     /^calls=/ { if (callee ~ /^(malloc|calloc|realloc|posix_memalign|aligned_alloc|memalign)$/) { split(substr($0, 7), a, " "); total += a[1] } }
     END { print total + 0 }' "$1"
 }
+steady_stages=()
+plain_stages=()
 for s in "${stages[@]}"; do
+  case "$s" in steady | steady2) steady_stages+=("$s") ;; *) plain_stages+=("$s") ;; esac
+done
+stages=("${plain_stages[@]+"${plain_stages[@]}"}")
+# One callgrind dump per frame (hotpaths steady): name.1, name.2, ... in frame order.
+for s in "${steady_stages[@]+"${steady_stages[@]}"}"; do
+  f="$out/$s.callgrind"
+  rm -f "$f" "$f".*
+  valgrind --tool=callgrind --instr-atstart=no --callgrind-out-file="$f" "$build/bench/hotpaths" "$s" \
+    "${STEADY_WARMUP:-8}" "${STEADY_FRAMES:-5}" 2>"$out/$s.log" | sed 's/^/  /'
+  echo
+  printf '%-8s %-10s %16s %8s\n' stage frame 'Ir' allocs
+  for part in $(ls "$f".* 2>/dev/null | sed 's/.*\.//' | grep -E '^[0-9]+$' | sort -n); do
+    pf="$f.$part"
+    name=$(awk -F'"' '/^desc: Trigger:/ {print $2; exit}' "$pf" | sed 's/^frame //')
+    [ -n "$name" ] || name=$(awk '/^desc: Trigger:/ {print $NF; exit}' "$pf")
+    irs=$(awk '/^totals:/ {print $2}' "$pf")
+    printf '%-8s %-10s %16s %8s\n' "$s" "$name" "$(printf "%'d" "$irs" 2>/dev/null || echo "$irs")" "$(count_allocs "$pf")"
+  done
+done
+
+for s in "${stages[@]+"${stages[@]}"}"; do
   f="$out/$s.callgrind"
   valgrind --tool=callgrind --instr-atstart=no --callgrind-out-file="$f" "$build/bench/hotpaths" "$s" \
     2>"$out/$s.log" | sed 's/^/  /'
@@ -52,6 +78,7 @@ for s in "${stages[@]}"; do
       >"$out/$s.top"
 done
 
+[ ${#stages[@]} -gt 0 ] || exit 0
 echo
 printf '%-14s %16s %8s\n' stage 'Ir' allocs
 for s in "${stages[@]}"; do

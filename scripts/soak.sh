@@ -145,7 +145,7 @@ awk -F, 'NR > 1 && $2 > 0 { n++; x[n] = $1; y[n] = $2 }
     }
     slope = (m > 1 && m * sxx - sx * sx > 0) ? (m * sxy - sx * sy) / (m * sxx - sx * sx) : 0
     printf "RSS start %.1f MB, end %.1f MB, max %.1f MB; slope %+.2f MB/h (least squares over %d of %d samples%s)\n",
-      y[1] / 1024, y[n] / 1024, top / 1024, slope * 3600 / 1024, m, n, skip > 0 ? ", first minute skipped" : ""
+      y[1] / 1024, y[n] / 1024, top / 1024, slope * 3600 / 1024, m, n, (skip > 0 ? ", first minute skipped" : "")
   }' "$work/rss.csv"
 window=300
 if (( seconds < 2 * window )); then window=$(( seconds / 2 )); fi

@@ -211,7 +211,8 @@ LineFit fitLine(const std::vector<double>& x, const std::vector<double>& y) {
 }
 
 std::vector<FrameTimeRow> frameTimeRows(const std::vector<OdometryResult>& results,
-                                        const std::vector<eval::TimedPose>& gt) {
+                                        const std::vector<eval::TimedPose>& gt, std::span<const double> cpu_ms,
+                                        std::span<const double> wall_ms) {
   std::vector<double> along(gt.size(), 0.0);
   for (std::size_t i = 1; i < gt.size(); ++i)
     along[i] = along[i - 1] + (gt[i].T_W_B.translation() - gt[i - 1].T_W_B.translation()).norm();
@@ -229,21 +230,36 @@ std::vector<FrameTimeRow> frameTimeRows(const std::vector<OdometryResult>& resul
     row.icp_ms = r.times.icp_ms;
     row.features = r.quality.features_left;
     row.model_points = r.quality.model_points;
+    row.rectify_ms = r.times.rectify_ms;
+    row.stereo_ms = r.times.stereo_ms;
+    row.temporal_ms = r.times.temporal_ms;
+    row.tensor_ms = r.times.tensor_ms;
+    if (i < cpu_ms.size()) row.cpu_ms = cpu_ms[i];
+    if (i < wall_ms.size()) row.wall_ms = wall_ms[i];
+    // In a global run this is ICP against the map; a local run's ICP (previous frame) counts too.
+    row.icp_ran = r.quality.icp_iterations > 0 && r.quality.model_points > 0;
+    row.map_refined = r.quality.map_refined;
     rows.push_back(row);
   }
   return rows;
 }
 
 namespace {
-constexpr const char* kFrameCsvHeader = "frame,distance_m,total_ms,features_ms,icp_ms,features,model_points";
+/// Before the stage split (still read, e.g. CSVs of older `bench paper` runs).
+constexpr const char* kFrameCsvHeaderV1 = "frame,distance_m,total_ms,features_ms,icp_ms,features,model_points";
+constexpr const char* kFrameCsvHeader =
+    "frame,distance_m,total_ms,features_ms,icp_ms,features,model_points,rectify_ms,stereo_ms,temporal_ms,tensor_ms,"
+    "cpu_ms,wall_ms,icp_ran,map_refined";
 }  // namespace
 
 void writeFrameTimesCsv(const std::string& path, const std::vector<FrameTimeRow>& rows) {
   std::ofstream os(path);
   os << kFrameCsvHeader << "\n";
   for (const auto& r : rows)
-    os << fmt::format("{},{:.3f},{:.4f},{:.4f},{:.4f},{},{}\n", r.frame, r.distance_m, r.total_ms, r.features_ms,
-                      r.icp_ms, r.features, r.model_points);
+    os << fmt::format("{},{:.3f},{:.4f},{:.4f},{:.4f},{},{},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{},{}\n", r.frame,
+                      r.distance_m, r.total_ms, r.features_ms, r.icp_ms, r.features, r.model_points, r.rectify_ms,
+                      r.stereo_ms, r.temporal_ms, r.tensor_ms, r.cpu_ms, r.wall_ms, r.icp_ran ? 1 : 0,
+                      r.map_refined ? 1 : 0);
   if (!os) throw std::runtime_error(path + ": cannot write");
 }
 
@@ -251,7 +267,9 @@ std::vector<FrameTimeRow> readFrameTimesCsv(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw drivers::InputError(path + ": cannot open");
   std::string line;
-  if (!std::getline(in, line) || line != kFrameCsvHeader)
+  const bool have_header = static_cast<bool>(std::getline(in, line));
+  const bool v1 = have_header && line == kFrameCsvHeaderV1;
+  if (!have_header || (!v1 && line != kFrameCsvHeader))
     throw drivers::InputError(path + ":1: expected the header '" + std::string(kFrameCsvHeader) + "'");
   std::vector<FrameTimeRow> rows;
   int line_no = 1;
@@ -262,10 +280,21 @@ std::vector<FrameTimeRow> readFrameTimesCsv(const std::string& path) {
     std::istringstream fields(line);
     FrameTimeRow r;
     std::string extra;
-    if (!(fields >> r.frame >> r.distance_m >> r.total_ms >> r.features_ms >> r.icp_ms >> r.features >> r.model_points) ||
-        (fields >> extra) || !std::isfinite(r.distance_m) || !std::isfinite(r.total_ms) || !std::isfinite(r.icp_ms) ||
-        !std::isfinite(r.features_ms))
-      throw drivers::InputError(fmt::format("{}:{}: expected 7 numbers ({})", path, line_no, kFrameCsvHeader));
+    int icp_ran = 0, map_refined = 0;
+    bool ok = static_cast<bool>(fields >> r.frame >> r.distance_m >> r.total_ms >> r.features_ms >> r.icp_ms >>
+                                r.features >> r.model_points);
+    if (ok && !v1)
+      ok = static_cast<bool>(fields >> r.rectify_ms >> r.stereo_ms >> r.temporal_ms >> r.tensor_ms >> r.cpu_ms >>
+                             r.wall_ms >> icp_ran >> map_refined);
+    for (double v : {r.distance_m, r.total_ms, r.icp_ms, r.features_ms, r.rectify_ms, r.stereo_ms, r.temporal_ms,
+                     r.tensor_ms, r.cpu_ms, r.wall_ms})
+      ok = ok && std::isfinite(v);
+    if (!ok || (fields >> extra))
+      throw drivers::InputError(fmt::format("{}:{}: expected {} numbers ({})", path, line_no, v1 ? 7 : 15,
+                                            v1 ? kFrameCsvHeaderV1 : kFrameCsvHeader));
+    r.icp_ran = icp_ran != 0;
+    r.map_refined = map_refined != 0;
+    if (v1) r.icp_ran = r.model_points > 0;
     rows.push_back(r);
   }
   return rows;
@@ -527,23 +556,84 @@ std::vector<StageRow> runStageBench(const StageBenchOptions& o) {
 
 namespace {
 
-/// Per-frame total time against frame index, dots coloured by whether ICP ran against the map,
-/// with the fitted line.
-void plotFrameTimes(const std::string& path, const std::vector<FrameTimeRow>& rows, const LineFit& fit) {
-  cv::Mat img(545, 900, CV_8UC3, cv::Scalar(255, 255, 255));
-  std::vector<double> totals;
-  for (const auto& r : rows) totals.push_back(r.total_ms);
-  const Percentiles p = percentiles(totals);
-  const double ymax = std::max(1.0, 1.15 * std::max(p.p99, fit.intercept + fit.slope * static_cast<double>(rows.size())));
-  const plot::Axes a{cv::Rect(90, 50, 780, 400), 0.0, std::max(1.0, static_cast<double>(rows.size())), 0.0, ymax};
-  plot::drawAxes(img, a, "frame", "time per frame [ms]",
-                 fmt::format("per-frame time over the survey: fit {:+.3f} ms per 1000 frames", fit.slope * 1000.0));
-  for (const auto& r : rows)
-    cv::circle(img, a.px(r.frame, r.total_ms), 1, r.model_points > 0 ? plot::kRed : plot::kBlue, cv::FILLED);
-  plot::polyline(img, a, {{0.0, fit.intercept}, {static_cast<double>(rows.size()), fit.intercept + fit.slope * rows.size()}},
+/// The frame's CPU time where measured, else its stage total.
+double frameCost(const FrameTimeRow& r) { return r.cpu_ms >= 0 ? r.cpu_ms : r.total_ms; }
+
+/// Per-frame time over the survey against distance travelled: per distance bin the median
+/// of each stage stacked, every frame's CPU time as a dot, the wall-time median per bin,
+/// the fitted CPU line (ms per km), and a tick under the axis for each frame where ICP ran
+/// against the map.
+void plotFrameTimes(const std::string& path, const ScalingResult& res) {
+  const std::vector<FrameTimeRow>& rows = res.frames;
+  cv::Mat img(600, 1000, CV_8UC3, cv::Scalar(255, 255, 255));
+  std::vector<double> cost, wall;
+  for (const auto& r : rows) {
+    if (r.frame == 0) continue;
+    cost.push_back(frameCost(r));
+    if (r.wall_ms >= 0) wall.push_back(r.wall_ms);
+  }
+  const double km_max = std::max(1e-3, rows.empty() ? 0.0 : rows.back().distance_m * 1e-3);
+  const int bins = std::clamp(static_cast<int>(rows.size() / 25), 1, 60);
+  struct Bin {
+    std::vector<double> st[7];
+    std::vector<double> wall;
+  };
+  std::vector<Bin> b(static_cast<std::size_t>(bins));
+  for (const auto& r : rows) {
+    if (r.frame == 0) continue;
+    const int i = std::min(bins - 1, static_cast<int>(r.distance_m * 1e-3 / km_max * bins));
+    const double other = std::max(0.0, r.total_ms - r.rectify_ms - r.features_ms - r.stereo_ms - r.temporal_ms -
+                                           r.tensor_ms - r.icp_ms);
+    const double v[7] = {r.rectify_ms, r.features_ms, r.stereo_ms, r.temporal_ms, r.tensor_ms, r.icp_ms, other};
+    for (int k = 0; k < 7; ++k) b[static_cast<std::size_t>(i)].st[k].push_back(v[k]);
+    if (r.wall_ms >= 0) b[static_cast<std::size_t>(i)].wall.push_back(r.wall_ms);
+  }
+  const Percentiles pc = percentiles(cost), pw = percentiles(wall);
+  const double ymax = std::max(1.0, 1.15 * std::max(pc.p99, wall.empty() ? 0.0 : pw.median * 1.3));
+  const plot::Axes a{cv::Rect(90, 50, 880, 420), 0.0, km_max, 0.0, ymax};
+  plot::drawAxes(img, a, "distance travelled [km]", "time per frame [ms]",
+                 fmt::format("CPU per frame: {:+.3f} ms/km (R^2 {:.3f}); map step {:+.3f} ms/km", res.cpu_vs_km.slope,
+                             res.cpu_vs_km.r2, res.map_step_vs_km.slope));
+  static const cv::Scalar kStage[7] = {{180, 180, 180}, {235, 170, 90}, {120, 200, 240}, {150, 220, 150},
+                                       {210, 150, 210}, {60, 60, 230},  {110, 110, 110}};
+  static const char* kStageName[7] = {"rectify", "features", "stereo", "temporal", "tensor", "map step (ICP)", "other"};
+  for (int i = 0; i < bins; ++i) {
+    double y = 0;
+    const double x0 = km_max * i / bins, x1 = km_max * (i + 1) / bins;
+    for (int k = 0; k < 7; ++k) {
+      const double h = percentiles(b[static_cast<std::size_t>(i)].st[k]).median;
+      if (h <= 0) continue;
+      cv::rectangle(img, a.px(x0 + 0.1 * (x1 - x0), y + h), a.px(x1 - 0.1 * (x1 - x0), y), kStage[k], cv::FILLED);
+      y += h;
+    }
+  }
+  for (const auto& r : rows) {
+    if (r.frame == 0) continue;
+    cv::circle(img, a.px(r.distance_m * 1e-3, frameCost(r)), 1, plot::kDarkGrey, cv::FILLED);
+    if (r.icp_ran) {
+      const cv::Point p = a.px(r.distance_m * 1e-3, 0);
+      cv::line(img, {p.x, p.y + 3}, {p.x, p.y + 9}, plot::kRed, 1);
+    }
+  }
+  std::vector<cv::Point2d> wline;
+  for (int i = 0; i < bins; ++i)
+    if (!b[static_cast<std::size_t>(i)].wall.empty())
+      wline.push_back({km_max * (i + 0.5) / bins, percentiles(b[static_cast<std::size_t>(i)].wall).median});
+  if (wline.size() > 1) plot::polyline(img, a, wline, plot::kGreen, 2);
+  plot::polyline(img, a, {{0.0, res.cpu_vs_km.intercept}, {km_max, res.cpu_vs_km.intercept + res.cpu_vs_km.slope * km_max}},
                  plot::kBlack, 2);
-  cv::putText(img, "blue: tensor + local; red: ICP against the map; black: least-squares line", {95, 530}, plot::kFont,
-              0.45, plot::kDarkGrey, 1, cv::LINE_AA);
+  int x = 95;
+  for (int k = 0; k < 7; ++k) {
+    cv::rectangle(img, {x, 528}, {x + 12, 540}, kStage[k], cv::FILLED);
+    cv::putText(img, kStageName[k], {x + 16, 539}, plot::kFont, 0.42, plot::kDarkGrey, 1, cv::LINE_AA);
+    x += 30 + 8 * static_cast<int>(std::string(kStageName[k]).size());
+  }
+  cv::putText(img, "bars: per-bin median of each stage (thread CPU); dots: CPU per frame; green: wall median per bin",
+              {95, 565}, plot::kFont, 0.4, plot::kDarkGrey, 1, cv::LINE_AA);
+  cv::putText(img,
+              fmt::format("black: CPU fit; red ticks: ICP against the map ({} frames; the map moved {})", res.icp_frames,
+                          res.map_refined_frames),
+              {95, 585}, plot::kFont, 0.4, plot::kDarkGrey, 1, cv::LINE_AA);
   plot::writePng(path, img);
 }
 
@@ -551,22 +641,46 @@ void plotFrameTimes(const std::string& path, const std::vector<FrameTimeRow>& ro
 void plotFeatureSweep(const std::string& path, const std::vector<FeatureSweepRow>& rows, const LineFit& fit) {
   cv::Mat img(545, 900, CV_8UC3, cv::Scalar(255, 255, 255));
   double xmax = 1, ymax = 1;
-  for (const auto& r : rows) xmax = std::max(xmax, 1.1 * r.features.median), ymax = std::max(ymax, 1.1 * r.total_ms.p99);
+  for (const auto& r : rows)
+    xmax = std::max(xmax, 1.1 * r.features.median),
+    ymax = std::max({ymax, 1.1 * r.cpu_ms.p99, 1.1 * r.wall_ms.median});
   const plot::Axes a{cv::Rect(90, 50, 780, 400), 0.0, xmax, 0.0, ymax};
   plot::drawAxes(img, a, "features per image (median)", "time per frame [ms]",
-                 fmt::format("time vs features: {:.2f} ms per 100 features + {:.1f} ms, R^2 {:.3f}", 100 * fit.slope,
+                 fmt::format("CPU vs features: {:.2f} ms per 100 features + {:.1f} ms, R^2 {:.3f}", 100 * fit.slope,
                              fit.intercept, fit.r2));
   plot::polyline(img, a, {{0.0, fit.intercept}, {xmax, fit.intercept + fit.slope * xmax}}, plot::kGrey, 2);
   for (const auto& r : rows) {
-    cv::line(img, a.px(r.features.median, r.total_ms.median), a.px(r.features.median, r.total_ms.p99), plot::kBlue, 1);
-    cv::circle(img, a.px(r.features.median, r.total_ms.median), 5, plot::kRed, cv::FILLED);
+    cv::line(img, a.px(r.features.median, r.cpu_ms.median), a.px(r.features.median, r.cpu_ms.p99), plot::kBlue, 1);
+    cv::circle(img, a.px(r.features.median, r.cpu_ms.median), 5, plot::kRed, cv::FILLED);
+    cv::drawMarker(img, a.px(r.features.median, r.wall_ms.median), plot::kGreen, cv::MARKER_DIAMOND, 10, 2);
   }
-  cv::putText(img, "red: median per frame; blue: up to p99; grey: least-squares line through the medians", {95, 530},
-              plot::kFont, 0.45, plot::kDarkGrey, 1, cv::LINE_AA);
+  cv::putText(img,
+              "red: median thread CPU per frame; blue: up to p99; green: wall median; grey: line through the CPU medians",
+              {95, 530}, plot::kFont, 0.45, plot::kDarkGrey, 1, cv::LINE_AA);
   plot::writePng(path, img);
 }
 
 }  // namespace
+
+void fitSurvey(ScalingResult& res) {
+  std::vector<double> idx, total, km, cpu, km_wall, wall, map_step;
+  res.icp_frames = res.map_refined_frames = 0;
+  for (const auto& r : res.frames) {
+    if (r.frame == 0) continue;  // frame 0 only initialises
+    idx.push_back(r.frame);
+    total.push_back(r.total_ms);
+    km.push_back(r.distance_m * 1e-3);
+    cpu.push_back(frameCost(r));
+    map_step.push_back(r.icp_ms);
+    if (r.wall_ms >= 0) km_wall.push_back(r.distance_m * 1e-3), wall.push_back(r.wall_ms);
+    res.icp_frames += r.icp_ran ? 1 : 0;
+    res.map_refined_frames += r.map_refined ? 1 : 0;
+  }
+  res.time_vs_frame = fitLine(idx, total);
+  res.cpu_vs_km = fitLine(km, cpu);
+  res.wall_vs_km = fitLine(km_wall, wall);
+  res.map_step_vs_km = fitLine(km, map_step);
+}
 
 ScalingResult runScalingBench(const ScalingBenchOptions& o) {
   if (o.dataset.empty() == o.frames_csv.empty())
@@ -584,20 +698,20 @@ ScalingResult runScalingBench(const ScalingBenchOptions& o) {
   } else {
     const drivers::Dataset ds = drivers::loadDataset(o.dataset);
     spdlog::info("bench scaling: global over {} ({} frames)", ds.root, ds.frames.size());
-    const SequenceRun sr = runSequence(ds, paramsFor(o.config, "global"), static_cast<std::size_t>(o.max_frames));
+    // One thread, stages on its CPU clock: on a loaded machine the wall clock mostly measures
+    // the wait for a core, and with one thread the CPU clock sees all of a frame's work.
+    const SequenceRun sr =
+        runSequence(ds, paramsFor(o.config, "global"), static_cast<std::size_t>(o.max_frames), {}, 1, threadCpuNowNs);
     std::vector<eval::TimedPose> gt;
     for (const auto& g : ds.ground_truth) gt.push_back({g.t_ns, g.T_W_B});
-    res.frames = frameTimeRows(sr.results, gt);
+    res.frames = frameTimeRows(sr.results, gt, sr.frame_cpu_ms, sr.frame_wall_ms);
   }
   if (res.frames.size() < 2) throw drivers::InputError("bench scaling: fewer than 2 frames to fit");
-  std::vector<double> idx, total;
-  for (const auto& r : res.frames)
-    if (r.frame > 0) idx.push_back(r.frame), total.push_back(r.total_ms);  // frame 0 only initialises
-  res.time_vs_frame = fitLine(idx, total);
+  fitSurvey(res);
   res.frames_csv = (fs::path(o.out_dir) / "scaling-frames.csv").string();
   writeFrameTimesCsv(res.frames_csv, res.frames);
   res.frames_png = (fs::path(o.out_dir) / "scaling-frames.png").string();
-  plotFrameTimes(res.frames_png, res.frames, res.time_vs_frame);
+  plotFrameTimes(res.frames_png, res);
 
   // 2. Time against feature count: the same short sequence with the controller aiming at
   // each target in turn.
@@ -621,27 +735,32 @@ ScalingResult runScalingBench(const ScalingBenchOptions& o) {
       p.features.max_features = std::max(1, static_cast<int>(std::lround(static_cast<double>(p.features.max_features) *
                                                                           target / base_target)));
     spdlog::info("bench scaling: {} features per image over {} frames", target, ds.frames.size());
-    const SequenceRun sr = runSequence(ds, p);
-    std::vector<double> f, t, ft;
+    const SequenceRun sr = runSequence(ds, p, 0, {}, 1, threadCpuNowNs);
+    std::vector<double> f, t, ft, cpu, wall;
     // Skip the first second: the controller settles from its initial threshold.
     for (std::size_t i = 10; i < sr.results.size(); ++i) {
       f.push_back(sr.results[i].quality.features_left);
       t.push_back(sr.results[i].times.total_ms);
       ft.push_back(sr.results[i].times.features_ms);
+      cpu.push_back(sr.frame_cpu_ms[i]);
+      wall.push_back(sr.frame_wall_ms[i]);
     }
-    FeatureSweepRow row{target, static_cast<int>(f.size()), percentiles(f), percentiles(t), percentiles(ft)};
+    FeatureSweepRow row{target,         static_cast<int>(f.size()), percentiles(f), percentiles(t), percentiles(ft),
+                        percentiles(cpu), percentiles(wall)};
     feat_med.push_back(row.features.median);
-    time_med.push_back(row.total_ms.median);
+    time_med.push_back(row.cpu_ms.median);
     res.sweep.push_back(row);
   }
   res.time_vs_features = fitLine(feat_med, time_med);
   res.features_csv = (fs::path(o.out_dir) / "scaling-features.csv").string();
   {
     std::ofstream os(res.features_csv);
-    os << "target,frames,features_median,features_p99,total_ms_median,total_ms_p99,features_ms_median\n";
+    os << "target,frames,features_median,features_p99,total_ms_median,total_ms_p99,features_ms_median,cpu_ms_median,"
+          "cpu_ms_p99,wall_ms_median,wall_ms_p99\n";
     for (const auto& r : res.sweep)
-      os << fmt::format("{},{},{:.1f},{:.1f},{:.3f},{:.3f},{:.3f}\n", r.target, r.frames, r.features.median,
-                        r.features.p99, r.total_ms.median, r.total_ms.p99, r.features_ms.median);
+      os << fmt::format("{},{},{:.1f},{:.1f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f},{:.3f}\n", r.target, r.frames,
+                        r.features.median, r.features.p99, r.total_ms.median, r.total_ms.p99, r.features_ms.median,
+                        r.cpu_ms.median, r.cpu_ms.p99, r.wall_ms.median, r.wall_ms.p99);
     if (!os) throw std::runtime_error(res.features_csv + ": cannot write");
   }
   res.features_png = (fs::path(o.out_dir) / "scaling-features.png").string();
@@ -651,24 +770,35 @@ ScalingResult runScalingBench(const ScalingBenchOptions& o) {
 
 void printScaling(std::ostream& os, const ScalingResult& r) {
   const std::size_t n = r.frames.size();
-  auto medianOf = [&](std::size_t from, std::size_t to) {
+  const bool have_cpu = n > 1 && r.frames.back().cpu_ms >= 0;
+  auto medianOf = [&](std::size_t from, std::size_t to, bool wall) {
     std::vector<double> v;
-    for (std::size_t i = std::max<std::size_t>(from, 1); i < to && i < n; ++i) v.push_back(r.frames[i].total_ms);
+    for (std::size_t i = std::max<std::size_t>(from, 1); i < to && i < n; ++i)
+      v.push_back(wall ? r.frames[i].wall_ms : frameCost(r.frames[i]));
     return percentiles(v).median;
   };
   const std::size_t tenth = std::max<std::size_t>(n / 10, 1);
   const double dist = n ? r.frames.back().distance_m : 0.0;
+  const char* what = have_cpu ? "thread CPU" : "stage total";
   os << "\nPer-frame time over the survey (issue 8: flat, no hidden O(n) in the map)\n";
-  os << fmt::format("{} frames, {:.0f} m: fit {:.3f} ms + {:+.4f} ms per 1000 frames (R^2 {:.3f}); median first tenth "
-                    "{:.2f} ms, last tenth {:.2f} ms\n",
-                    n, dist, r.time_vs_frame.intercept, r.time_vs_frame.slope * 1000.0, r.time_vs_frame.r2,
-                    medianOf(0, tenth), medianOf(n - tenth, n));
-  os << "\nPer-frame time against feature count (issue 8: roughly linear)\n";
-  os << fmt::format("{:>8}{:>8}{:>18}{:>20}{:>20}\n", "target", "frames", "features med/p99", "frame ms med/p99",
-                    "features ms med");
+  os << fmt::format("{} frames, {:.0f} m; {} per frame: fit {:.3f} ms + {:+.4f} ms per km (R^2 {:.3f}); median first "
+                    "tenth {:.2f} ms, last tenth {:.2f} ms\n",
+                    n, dist, what, r.cpu_vs_km.intercept, r.cpu_vs_km.slope, r.cpu_vs_km.r2, medianOf(0, tenth, false),
+                    medianOf(n - tenth, n, false));
+  if (have_cpu)
+    os << fmt::format("wall per frame: fit {:.3f} ms {:+.4f} ms per km; median first tenth {:.2f} ms, last tenth {:.2f} ms\n",
+                      r.wall_vs_km.intercept, r.wall_vs_km.slope, medianOf(0, tenth, true), medianOf(n - tenth, n, true));
+  os << fmt::format("map step (re-observation + ICP against the map): {:+.4f} ms per km; ICP against the map on {} "
+                    "frames, the map moved {} frames\n",
+                    r.map_step_vs_km.slope, r.icp_frames, r.map_refined_frames);
+  os << fmt::format("stage total against frame index: {:+.4f} ms per 1000 frames\n", r.time_vs_frame.slope * 1000.0);
+  os << "\nPer-frame time against feature count (issue 8: roughly linear; one thread, CPU clock)\n";
+  os << fmt::format("{:>8}{:>8}{:>18}{:>18}{:>18}{:>18}\n", "target", "frames", "features med/p99", "CPU ms med/p99",
+                    "wall ms med/p99", "features ms med");
   for (const auto& s : r.sweep)
-    os << fmt::format("{:>8}{:>8}{:>9.0f} /{:>6.0f}{:>11.2f} /{:>7.2f}{:>20.2f}\n", s.target, s.frames, s.features.median,
-                      s.features.p99, s.total_ms.median, s.total_ms.p99, s.features_ms.median);
+    os << fmt::format("{:>8}{:>8}{:>9.0f} /{:>6.0f}{:>9.2f} /{:>6.2f}{:>9.2f} /{:>6.2f}{:>18.2f}\n", s.target, s.frames,
+                      s.features.median, s.features.p99, s.cpu_ms.median, s.cpu_ms.p99, s.wall_ms.median,
+                      s.wall_ms.p99, s.features_ms.median);
   os << fmt::format("fit: {:.3f} ms per 100 features + {:.2f} ms, R^2 {:.3f}\n", 100.0 * r.time_vs_features.slope,
                     r.time_vs_features.intercept, r.time_vs_features.r2);
   os << "plots: " << r.frames_png << ", " << r.features_png << "\ncsv: " << r.frames_csv << ", " << r.features_csv

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <optional>
 #include <ostream>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -138,20 +139,29 @@ struct LineFit {
 /// Fit over the pairs (x[i], y[i]); n = 0 and zeros with fewer than two points or no spread in x.
 LineFit fitLine(const std::vector<double>& x, const std::vector<double>& y);
 
-/// One frame of a run, for the issue 8 scaling plots.
+/// One frame of a run, for the issue 8 scaling plots. Stage times are in the clock the run
+/// timed its stages with (`seavio bench scaling`: the thread's CPU clock, one thread).
 struct FrameTimeRow {
   int frame = 0;
   double distance_m = 0;  ///< ground-truth path length up to this frame [m]
   double total_ms = 0, features_ms = 0, icp_ms = 0;
   int features = 0;       ///< left image
   int model_points = 0;   ///< global ICP model size (0: no ICP against the map)
+  double rectify_ms = 0, stereo_ms = 0, temporal_ms = 0, tensor_ms = 0;
+  /// Around the frame's processing call: thread CPU and wall time [ms]; -1 = not measured.
+  double cpu_ms = -1, wall_ms = -1;
+  bool icp_ran = false;      ///< global mode: ICP against the map ran on this frame
+  bool map_refined = false;  ///< the map (re-observation or ICP) moved this frame
 };
-/// Rows of `results` with the distance along `gt` (sorted by time) at each frame's time.
+/// Rows of `results` with the distance along `gt` (sorted by time) at each frame's time;
+/// `cpu_ms`/`wall_ms` per frame when measured (SequenceRun::frame_cpu_ms, frame_wall_ms).
 std::vector<FrameTimeRow> frameTimeRows(const std::vector<OdometryResult>& results,
-                                        const std::vector<eval::TimedPose>& gt);
+                                        const std::vector<eval::TimedPose>& gt, std::span<const double> cpu_ms = {},
+                                        std::span<const double> wall_ms = {});
 /// CSV with a header line; throws std::runtime_error naming `path` if it cannot be written.
 void writeFrameTimesCsv(const std::string& path, const std::vector<FrameTimeRow>& rows);
-/// Reads writeFrameTimesCsv's format; throws drivers::InputError naming the file and line.
+/// Reads writeFrameTimesCsv's format (and the older 7-column one); throws
+/// drivers::InputError naming the file and line.
 std::vector<FrameTimeRow> readFrameTimesCsv(const std::string& path);
 
 /// One point of the feature-count sweep.
@@ -160,6 +170,7 @@ struct FeatureSweepRow {
   int frames = 0;
   Percentiles features;   ///< left-image features per frame
   Percentiles total_ms, features_ms;
+  Percentiles cpu_ms, wall_ms;  ///< around the processing call (thread CPU, one thread)
 };
 
 /// `seavio bench scaling`: per-frame time against survey length and against feature count.
@@ -178,10 +189,18 @@ struct ScalingBenchOptions {
 struct ScalingResult {
   std::vector<FrameTimeRow> frames;
   LineFit time_vs_frame;      ///< total_ms against frame index (slope: ms per frame)
-  LineFit time_vs_features;   ///< median total_ms against median feature count
+  /// Against distance travelled [km] (slope: ms per km): the frame's CPU time (total_ms
+  /// where not measured), its wall time, and the global map step alone (icp_ms).
+  LineFit cpu_vs_km, wall_vs_km, map_step_vs_km;
+  int icp_frames = 0;         ///< frames on which ICP against the map ran
+  int map_refined_frames = 0; ///< frames the map moved
+  LineFit time_vs_features;   ///< median CPU per frame against median feature count
   std::vector<FeatureSweepRow> sweep;
   std::string frames_png, features_png, frames_csv, features_csv;
 };
+/// The survey's fits (against frame index and distance) and ICP/map counts from res.frames
+/// (frame 0, which only initialises, left out).
+void fitSurvey(ScalingResult& res);
 /// Runs (or reads) the survey, runs the sweep in global mode, writes the CSVs and PNGs into
 /// out_dir. Throws std::invalid_argument naming the option for bad options.
 ScalingResult runScalingBench(const ScalingBenchOptions& options);

@@ -123,7 +123,8 @@ int run(const RunOptions& o) {
     }, static_cast<std::size_t>(o.threads));
     trajectory = seq.trajectory;
     for (const OdometryResult& r : seq.results) stats.add(r);
-    stats.printTable(std::cout);
+    stats.printTable(std::cout, params.mode == odometry::Mode::kGlobal ? RunStats::PaperVariant::kGlobal
+                                                                       : RunStats::PaperVariant::kLocal);
     const double per_1000 = seq.results.empty() ? 0.0 : 1000.0 / static_cast<double>(seq.results.size());
     std::cout << fmt::format("memory: peak RSS {:.1f} MiB; map {:.2f} MiB ({:.2f} MiB per 1000 frames, {} keyframes); "
                              "revisit corrections {}\n",

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <set>
 #include <stdexcept>
 
 #include <opencv2/imgproc.hpp>
@@ -87,10 +88,32 @@ ProfileReport computeProfile(const DaemonOutputLog& log, const ProfileParams& pa
   r.end_to_end_basis = same_clock ? "capture_to_publish" : have_recv ? "receive_to_publish" : "processing (lower bound)";
   std::vector<std::string> stage_order;
   std::map<std::string, std::vector<double>> stage_values;
-  std::vector<double> proc, e2e, interval;
+  std::vector<double> proc, e2e, interval, refined_e2e;
   const int64_t pub0 = log.poses.empty() ? 0 : log.poses.front().msg.publish_t_ns;
+  // Global mode with the ICP thread: a frame's local pose (FLAG_LOCAL_ONLY) and, later, its
+  // refined pose (FLAG_GLOBAL_REFINED, same seq). The frame's latency is the local one's;
+  // the refined messages are reported on their own, not as frames.
+  std::set<int64_t> local_seqs;
+  for (const LoggedPose& p : log.poses)
+    if (p.msg.flags & seavio_lcm::pose_t::FLAG_LOCAL_ONLY) local_seqs.insert(p.msg.seq);
+  const auto isRefinedSecond = [&](const seavio_lcm::pose_t& m) {
+    return (m.flags & seavio_lcm::pose_t::FLAG_GLOBAL_REFINED) && local_seqs.count(m.seq) > 0;
+  };
+  // Replay (stamps on the dataset clock, speed 1): the capture instant on the daemon clock is
+  // the stamp plus the replay's constant offset, estimated as the smallest receive - stamp
+  // difference (the quickest hand-over: its decode time is the only part not counted).
+  int64_t replay_offset_ns = std::numeric_limits<int64_t>::max();
+  if (!same_clock && have_recv)
+    for (const LoggedPose& p : log.poses) replay_offset_ns = std::min(replay_offset_ns, p.msg.recv_t_ns - p.msg.t_ns);
+  std::vector<double> replay_e2e;
+  const seavio_lcm::pose_t* prev_frame = nullptr;
   for (std::size_t i = 0; i < log.poses.size(); ++i) {
     const seavio_lcm::pose_t& m = log.poses[i].msg;
+    if (isRefinedSecond(m)) {
+      ++r.refined_poses;
+      refined_e2e.push_back(have_recv ? static_cast<double>(m.publish_t_ns - m.recv_t_ns) * 1e-6 : m.processing_ms);
+      continue;
+    }
     FrameTiming f;
     f.seq = m.seq;
     f.t_ns = m.t_ns;
@@ -117,8 +140,12 @@ ProfileReport computeProfile(const DaemonOutputLog& log, const ProfileParams& pa
     if (f.end_to_end_ms > params.budget_ms) ++r.over_budget;
     proc.push_back(f.processing_ms);
     e2e.push_back(f.end_to_end_ms);
-    if (i > 0) {
-      const seavio_lcm::pose_t& prev = log.poses[i - 1].msg;
+    if (!same_clock && have_recv)
+      replay_e2e.push_back(static_cast<double>(m.publish_t_ns - m.t_ns - replay_offset_ns) * 1e-6);
+    const seavio_lcm::pose_t* prev_ptr = prev_frame;
+    prev_frame = &m;
+    if (prev_ptr) {
+      const seavio_lcm::pose_t& prev = *prev_ptr;
       interval.push_back(static_cast<double>(m.publish_t_ns - prev.publish_t_ns) * 1e-6);
       if (m.seq > prev.seq + 1) {
         r.seq_gaps += static_cast<uint64_t>(m.seq - prev.seq - 1);
@@ -131,9 +158,12 @@ ProfileReport computeProfile(const DaemonOutputLog& log, const ProfileParams& pa
   r.per_frame.push_back(latencyStats("process", proc));
   r.per_frame.push_back(latencyStats("publish_interval", interval));
   r.per_frame.push_back(latencyStats("end_to_end", e2e));
+  if (!replay_e2e.empty()) r.per_frame_extra.push_back(latencyStats("capture_to_publish_replay", replay_e2e));
+  if (!refined_e2e.empty()) r.per_frame_extra.push_back(latencyStats("refined_end_to_end", refined_e2e));
   for (const std::string& name : stage_order) r.stages.push_back(latencyStats(name, stage_values[name]));
-  for (std::size_t i = 0; i < r.frames.size(); ++i) {
-    const seavio_lcm::pose_t& m = log.poses[i].msg;
+  for (std::size_t i = 0, j = 0; i < r.frames.size(); ++i, ++j) {
+    while (isRefinedSecond(log.poses[j].msg)) ++j;
+    const seavio_lcm::pose_t& m = log.poses[j].msg;
     std::vector<double>& v = r.frames[i].stage_ms;
     v.assign(stage_order.size(), 0.0);
     for (std::size_t k = 0; k < std::min(m.stage_names.size(), m.stage_ms.size()); ++k) {
@@ -171,6 +201,7 @@ void printProfile(std::ostream& os, const ProfileReport& r) {
        << "\n";
   };
   for (const LatencyStats& s : r.per_frame) row(s);
+  for (const LatencyStats& s : r.per_frame_extra) row(s);
   if (!r.stages.empty()) {
     os << "\nper stage (pose messages, every frame)\n";
     for (const LatencyStats& s : r.stages) row(s);
@@ -185,7 +216,11 @@ void printProfile(std::ostream& os, const ProfileReport& r) {
   }
   if (r.end_to_end_basis == "receive_to_publish")
     os << "note: capture stamps are not on the daemon clock (replayed dataset), so per-frame end_to_end runs\n"
-          "      from the daemon's receipt of the frame to publication\n";
+          "      from the daemon's receipt of the frame to publication; capture_to_publish_replay puts each stamp\n"
+          "      on the daemon clock with the replay's offset (smallest receive - stamp; real time replay only)\n";
+  if (r.refined_poses > 0)
+    os << "note: " << r.refined_poses << " refined poses (FLAG_GLOBAL_REFINED after the frame's FLAG_LOCAL_ONLY pose)\n"
+          "      are not frames: refined_end_to_end is their receipt to publication\n";
   else if (r.end_to_end_basis != "capture_to_publish")
     os << "note: capture stamps are not on the daemon clock (replayed dataset), so per-frame end_to_end is the\n"
           "      processing time; the daemon's end_to_end stage (acquisition to publish) includes queueing\n";
@@ -215,10 +250,16 @@ void writeProfileJson(const std::string& path, const ProfileReport& r) {
   out << "{\n  \"budget_ms\": " << num(r.params.budget_ms) << ",\n  \"end_to_end_basis\": \"" << r.end_to_end_basis
       << "\",\n  \"frames\": " << r.frames.size() << ",\n  \"over_budget\": " << r.over_budget
       << ",\n  \"seq_gaps\": " << r.seq_gaps << ",\n  \"repeated_or_backward_seq\": " << r.repeated_or_backward_seq
+      << ",\n  \"refined_poses\": " << r.refined_poses
       << ",\n  \"per_frame\": [";
   for (std::size_t i = 0; i < r.per_frame.size(); ++i) {
     out << (i ? ", " : "");
     writeStatsJson(out, r.per_frame[i]);
+  }
+  out << "],\n  \"per_frame_extra\": [";
+  for (std::size_t i = 0; i < r.per_frame_extra.size(); ++i) {
+    out << (i ? ", " : "");
+    writeStatsJson(out, r.per_frame_extra[i]);
   }
   out << "],\n  \"stages\": [";
   for (std::size_t i = 0; i < r.stages.size(); ++i) {

@@ -53,6 +53,9 @@ struct ProfileReport {
   ProfileParams params;
   std::vector<FrameTiming> frames;          ///< in log order
   std::vector<LatencyStats> per_frame;      ///< "process", "publish_interval", "end_to_end"
+  /// When they apply: "capture_to_publish_replay" (stamps of a real-time replay put on the
+  /// daemon clock) and "refined_end_to_end" (global mode's second, refined pose per frame).
+  std::vector<LatencyStats> per_frame_extra;
   /// Per-frame stages from the poses' stage_names/stage_ms, in order of first appearance
   /// (empty for version 1 poses).
   std::vector<LatencyStats> stages;
@@ -63,6 +66,9 @@ struct ProfileReport {
   uint64_t over_budget = 0;        ///< frames whose end-to-end figure exceeds the budget
   uint64_t seq_gaps = 0;           ///< frames missing from the pose sequence numbers
   uint64_t repeated_or_backward_seq = 0;
+  /// Refined poses (FLAG_GLOBAL_REFINED following the same seq's FLAG_LOCAL_ONLY pose): not
+  /// frames; their receipt-to-publish is per_frame "refined_end_to_end".
+  uint64_t refined_poses = 0;
   bool has_status = false;
   seavio_lcm::status_t last_status{};  ///< valid if has_status
   LogScanStats log;

@@ -27,8 +27,10 @@ class RunStats {
   const std::vector<MemorySample>& memorySamples() const { return memory_; }
   /// "RSS after 1000 frames ... MiB; growth ..." line(s); nothing without samples.
   void printMemory(std::ostream& os) const;
-  /// Median and p99 per stage, with the paper's local-variant figures beside ours.
-  void printTable(std::ostream& os) const;
+  /// Which of the paper's Table II columns to print beside ours.
+  enum class PaperVariant { kLocal, kGlobal };
+  /// Median and p99 per stage, with the paper's figures for `variant` beside ours.
+  void printTable(std::ostream& os, PaperVariant variant = PaperVariant::kLocal) const;
   /// One JSON object per frame plus a summary.
   void writeJson(const std::string& path) const;
   /// Percentile (0..100) of a per-frame quantity.

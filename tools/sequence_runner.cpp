@@ -1,6 +1,7 @@
 #include "tools/sequence_runner.hpp"
 
 #include <sys/resource.h>
+#include <time.h>
 
 #include <algorithm>
 #include <chrono>
@@ -17,20 +18,29 @@ int64_t monotonicNowNs() {
       .count();
 }
 
+int64_t threadCpuNowNs() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<int64_t>(ts.tv_sec) * 1'000'000'000LL + ts.tv_nsec;
+}
+
 SequenceRun runSequence(const drivers::Dataset& ds, const odometry::OdometryParams& params, std::size_t max_frames,
-                        const FrameCallback& on_frame, std::size_t feature_threads) {
+                        const FrameCallback& on_frame, std::size_t feature_threads, const NowNsFn& stage_clock) {
   if (ds.frames.empty()) throw drivers::InputError(ds.root + ": no stereo frames");
   std::string error;
   auto rectifier = camera::StereoRectifier::create(ds.calibration, &error);
   if (!rectifier) throw drivers::InputError(ds.root + ": calibration unusable: " + error);
   const std::size_t n = max_frames > 0 ? std::min(ds.frames.size(), max_frames) : ds.frames.size();
 
-  daemon::OdometryProcessor processor(odometry::Odometry(std::move(*rectifier), ds.imu_noise, params, monotonicNowNs),
+  daemon::OdometryProcessor processor(odometry::Odometry(std::move(*rectifier), ds.imu_noise, params,
+                                                        stage_clock ? stage_clock : NowNsFn(monotonicNowNs)),
                                      feature_threads);
   const odometry::Odometry& odo = processor.odometry();
   SequenceRun out;
   out.trajectory.reserve(n);
   out.results.reserve(n);
+  out.frame_wall_ms.reserve(n);
+  out.frame_cpu_ms.reserve(n);
   std::size_t imu_cursor = 0;
   for (std::size_t i = 0; i < n; ++i) {
     const StereoFrame frame = drivers::loadFrame(ds, i);
@@ -38,7 +48,10 @@ SequenceRun runSequence(const drivers::Dataset& ds, const odometry::OdometryPara
     while (imu_cursor < ds.imu.size() && ds.imu[imu_cursor].t_ns <= frame.t_ns) ++imu_cursor;
     const std::size_t end = std::min(ds.imu.size(), imu_cursor + 1);
     const std::span<const ImuSample> imu(ds.imu.data() + begin, end - begin);
+    const int64_t wall0 = monotonicNowNs(), cpu0 = threadCpuNowNs();
     OdometryResult r = processor.process(frame, imu);
+    out.frame_cpu_ms.push_back(static_cast<double>(threadCpuNowNs() - cpu0) * 1e-6);
+    out.frame_wall_ms.push_back(static_cast<double>(monotonicNowNs() - wall0) * 1e-6);
     out.trajectory.push_back({r.t_ns, r.T_W_B});
     if (on_frame) on_frame(i, r);
     out.results.push_back(std::move(r));

@@ -24,10 +24,16 @@ struct SequenceRun {
   std::size_t map_bytes = 0;                ///< Odometry::mapMemoryBytes() at the end [bytes]
   int revisit_corrections = 0;              ///< global mode: frames pulled onto older ground seen again
   double peak_rss_mb = 0;                   ///< process peak resident size after the run [MiB] (getrusage)
+  /// Per frame, around the processing call: wall time and the calling thread's CPU time
+  /// (CLOCK_THREAD_CPUTIME_ID; the whole frame's CPU with feature_threads 1) [ms].
+  std::vector<double> frame_wall_ms, frame_cpu_ms;
 };
 
 /// Monotonic wall clock [ns] (std::chrono::steady_clock), the clock the stage times use.
 int64_t monotonicNowNs();
+/// CPU time of the calling thread [ns] (CLOCK_THREAD_CPUTIME_ID): stage times that do not
+/// count waiting for a core on a loaded machine (issue 8 scaling plots).
+int64_t threadCpuNowNs();
 
 /// Runs the odometry over the first `max_frames` frames of `ds` (0 = all), handing each frame
 /// the IMU samples from the one before the previous frame to the first one after this frame
@@ -35,10 +41,11 @@ int64_t monotonicNowNs();
 /// and identical for any `feature_threads`: 1 extracts left and right features in turn, 2
 /// (default) the right image on a persistent worker while the left runs on the caller,
 /// through the daemon's OdometryProcessor (issue 8).
+/// `stage_clock` times the stages (OdometryResult::times); it changes no estimate.
 /// Throws drivers::InputError naming the dataset if it has no frames or its calibration
 /// cannot be rectified, and whatever drivers::loadFrame throws for an unreadable image.
 SequenceRun runSequence(const drivers::Dataset& ds, const odometry::OdometryParams& params,
                         std::size_t max_frames = 0, const FrameCallback& on_frame = {},
-                        std::size_t feature_threads = 2);
+                        std::size_t feature_threads = 2, const NowNsFn& stage_clock = monotonicNowNs);
 
 }  // namespace seavio::tools

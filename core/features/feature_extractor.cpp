@@ -102,6 +102,11 @@ FeatureExtractor::FeatureExtractor(const FeatureParams& params)
 }
 
 Features FeatureExtractor::extract(const cv::Mat& gray8, double threshold) const {
+  SurfWorkspace workspace;
+  return extract(gray8, threshold, workspace);
+}
+
+Features FeatureExtractor::extract(const cv::Mat& gray8, double threshold, SurfWorkspace& workspace) const {
   if (!gray8.empty() && gray8.type() != CV_8UC1) {
     throw std::invalid_argument("FeatureExtractor: expected an 8-bit single-channel image, got type " +
                                 std::to_string(gray8.type()));
@@ -112,7 +117,7 @@ Features FeatureExtractor::extract(const cv::Mat& gray8, double threshold) const
   switch (params_.type) {
     case DetectorType::kSurf:
       f.norm_type = cv::NORM_L2;
-      surf_.detectAndCompute(gray8, threshold, f.keypoints, f.descriptors);
+      surf_.detectAndCompute(gray8, threshold, f.keypoints, f.descriptors, workspace);
       return f;
     case DetectorType::kSift: {
       f.norm_type = cv::NORM_L2;

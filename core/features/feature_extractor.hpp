@@ -64,6 +64,9 @@ class FeatureExtractor {
   /// Detects and describes features in `gray8` (CV_8UC1; throws std::invalid_argument
   /// otherwise) with `threshold` in the detector's units (see ThresholdRange).
   Features extract(const cv::Mat& gray8, double threshold) const;
+  /// The same with SURF's buffers in `workspace` (kept by the caller across frames, one per
+  /// thread calling at once); the OpenCV detectors ignore it.
+  Features extract(const cv::Mat& gray8, double threshold, SurfWorkspace& workspace) const;
 
  private:
   FeatureParams params_;

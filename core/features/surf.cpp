@@ -24,6 +24,13 @@ constexpr int kOriWindowDeg = 60;      // sliding sector
 constexpr int kPatch = 20;             // 20 s descriptor window, 4 x 4 sub-regions of 5 x 5
 constexpr float kDescSigma = 3.3f;     // Gaussian over the window, in sample spacings
 constexpr float kDxyWeight = 0.9f;     // balances the box approximation (Bay 2008, eq. 4)
+/// Orientation samples: integer offsets within radius kOriRadius (113).
+constexpr int kOriSamples = [] {
+  int n = 0;
+  for (int v = -kOriRadius; v <= kOriRadius; ++v)
+    for (int u = -kOriRadius; u <= kOriRadius; ++u) n += u * u + v * v <= kOriRadius * kOriRadius;
+  return n;
+}();
 
 /// A box sum S(a) - S(b) - S(c) + S(d) expressed as offsets from S(x, y) of the filter
 /// centre; unsigned arithmetic so a wrapped table still gives the exact sum.
@@ -96,8 +103,9 @@ inline void hessianRow(const HessianFilter& f, const uint32_t* base, std::ptrdif
 
 /// hessianRow for a lobe length L known at compile time: the box corners lie on ten table
 /// rows, so ten row pointers plus constant column offsets replace 32 runtime offsets (which
-/// do not fit in registers). Serves the strided octaves; unit steps take hessianRowUnit. Same
-/// integer arithmetic (exact modulo 2^32) and float operations as hessianRow: bit-identical.
+/// do not fit in registers). Serves octaves 2 and up (step 1 takes hessianLayerUnit, step 2
+/// hessianRowStep2). Same integer arithmetic (exact modulo 2^32) and float operations as
+/// hessianRow: bit-identical.
 template <int L, bool kUnitStep>
 void hessianRowFixed(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t stride,
                      std::ptrdiff_t step_arg, int n, float* out) {
@@ -135,42 +143,30 @@ void hessianRowFixed(const HessianFilter& f, const uint32_t* base, std::ptrdiff_
 
 /// hessianRowFixed at unit step with the row differences factored out: every box of a
 /// filter spans one of five row pairs (xx; yy outer; yy middle; xy upper; xy lower), so the
-/// difference of each pair is formed once per column in `scratch` and every box sum becomes
-/// two reads of it instead of four of the table (16 reads per response instead of 32). The
-/// same sums modulo 2^32 in a different association: bit-identical output.
+/// difference of each pair is formed once per column and every box sum becomes two reads of
+/// it instead of four of the table (16 reads per response instead of 32). The same sums
+/// modulo 2^32 in a different association: bit-identical output.
 /// Unit steps only: at coarser steps forming the differences at every column costs more than
-/// the reads it saves. `scratch` holds at least 5 (n + 3 L) entries.
+/// the reads it saves. The xx and yy-outer differences are formed here in `scratch` (2 (n +
+/// 3 L) entries); the three L-row differences (yy middle, xy upper, xy lower) are the same
+/// vertical L-row sums at rows i - M, i - L and i + 1, so hessianLayerUnit forms each once
+/// and passes it to three output rows (`fm`, `d1`, `d2`, at the first output column).
 template <int L>
 void hessianRowUnit(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t stride, int n, float* out,
-                    uint32_t* scratch) {
+                    uint32_t* scratch, const uint32_t* fm, const uint32_t* d1, const uint32_t* d2) {
   constexpr int H = (3 * L - 1) / 2, M = (L - 1) / 2;
   const std::ptrdiff_t span = n + 2 * H + 1;  // columns -H .. n + H
   uint32_t* e = scratch + H;       // xx rows
   uint32_t* fo = e + span;         // yy outer rows
-  uint32_t* fm = fo + span;        // yy middle rows
-  uint32_t* d1 = fm + span;        // xy upper rows
-  uint32_t* d2 = d1 + span;        // xy lower rows
   {
     const uint32_t* xr0 = base - (L - 1) * stride - H;
     const uint32_t* xr1 = base + L * stride - H;
     const uint32_t* ya0 = base - H * stride - H;
     const uint32_t* ya1 = base + (H + 1) * stride - H;
-    const uint32_t* ym0 = base - M * stride - H;
-    const uint32_t* ym1 = base + (M + 1) * stride - H;
-    const uint32_t* q0 = base - L * stride - H;
-    const uint32_t* q1 = base - H;
-    const uint32_t* q2 = base + stride - H;
-    const uint32_t* q3 = base + (L + 1) * stride - H;
     uint32_t* e0 = e - H;
     uint32_t* fo0 = fo - H;
-    uint32_t* fm0 = fm - H;
-    uint32_t* d10 = d1 - H;
-    uint32_t* d20 = d2 - H;
     for (std::ptrdiff_t k = 0; k < span; ++k) e0[k] = xr1[k] - xr0[k];
     for (std::ptrdiff_t k = 0; k < span; ++k) fo0[k] = ya1[k] - ya0[k];
-    for (std::ptrdiff_t k = 0; k < span; ++k) fm0[k] = ym1[k] - ym0[k];
-    for (std::ptrdiff_t k = 0; k < span; ++k) d10[k] = q1[k] - q0[k];
-    for (std::ptrdiff_t k = 0; k < span; ++k) d20[k] = q3[k] - q2[k];
   }
   const float wl = f.inv_lobe_area, wxy = f.inv_xy_area * kDxyWeight;
   for (int c = 0; c < n; ++c) {
@@ -191,18 +187,138 @@ void hessianRowUnit(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t
   }
 }
 
-/// det(H) along a grid row with the fastest kernel for the filter (hessianRowUnit,
-/// hessianRowFixed).
-void hessianRowAny(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t stride,
-                   std::ptrdiff_t step, int n, float* out, uint32_t* scratch) {
+/// hessianRowUnit over output rows i0..i1 (columns j0 .. j0 + n - 1) of `det` (row pitch
+/// `cols`): the vertical L-row sums V(r) = S(r + L) - S(r) of the table go through a ring of
+/// L + 2 rows, each formed once and read by the rows i = r + M (yy middle), r + L (xy upper)
+/// and r - 1 (xy lower). `scratch` holds (L + 4) (n + 3 L) entries.
+template <int L>
+void hessianLayerUnit(const HessianFilter& f, const uint32_t* sum, std::ptrdiff_t stride, int i0, int i1, int j0,
+                      int n, float* det, std::ptrdiff_t cols, uint32_t* scratch) {
+  constexpr int H = (3 * L - 1) / 2, M = (L - 1) / 2, kRing = L + 2;
+  const std::ptrdiff_t span = n + 2 * H + 1;
+  uint32_t* ring = scratch + 2 * span;
+  std::array<int, kRing> ring_row;
+  ring_row.fill(-1);
+  const auto vrow = [&](int r) -> const uint32_t* {  // r >= i0 - L >= 0
+    const int slot = r % kRing;
+    uint32_t* v = ring + slot * span;
+    if (ring_row[slot] != r) {
+      const uint32_t* a = sum + static_cast<std::ptrdiff_t>(r) * stride + j0 - H;
+      const uint32_t* b = a + L * stride;
+      for (std::ptrdiff_t k = 0; k < span; ++k) v[k] = b[k] - a[k];
+      ring_row[slot] = r;
+    }
+    return v + H;
+  };
+  for (int i = i0; i <= i1; ++i) {
+    const uint32_t* base = sum + static_cast<std::ptrdiff_t>(i) * stride + j0;
+    const uint32_t* fm = vrow(i - M);
+    const uint32_t* d1 = vrow(i - L);
+    const uint32_t* d2 = vrow(i + 1);
+    hessianRowUnit<L>(f, base, stride, n, det + static_cast<std::ptrdiff_t>(i) * cols + j0, scratch, fm, d1, d2);
+  }
+}
+
+/// Table row difference b - a over the 2 k columns starting at `a`/`b`, split by column parity:
+/// even[q] = b[2 q] - a[2 q], odd[q] = b[2 q + 1] - a[2 q + 1], q < k.
+inline void rowDifferenceSplit(const uint32_t* a, const uint32_t* b, std::ptrdiff_t k, uint32_t* even,
+                               uint32_t* odd) {
+  std::ptrdiff_t q = 0;
+#if defined(__SSE2__)
+  for (; q + 4 <= k; q += 4) {
+    const __m128i lo = _mm_sub_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(b + 2 * q)),
+                                     _mm_loadu_si128(reinterpret_cast<const __m128i*>(a + 2 * q)));
+    const __m128i hi = _mm_sub_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(b + 2 * q + 4)),
+                                     _mm_loadu_si128(reinterpret_cast<const __m128i*>(a + 2 * q + 4)));
+    const __m128 l = _mm_castsi128_ps(lo), h = _mm_castsi128_ps(hi);
+    _mm_storeu_ps(reinterpret_cast<float*>(even + q), _mm_shuffle_ps(l, h, _MM_SHUFFLE(2, 0, 2, 0)));
+    _mm_storeu_ps(reinterpret_cast<float*>(odd + q), _mm_shuffle_ps(l, h, _MM_SHUFFLE(3, 1, 3, 1)));
+  }
+#endif
+  for (; q < k; ++q) {
+    even[q] = b[2 * q] - a[2 * q];
+    odd[q] = b[2 * q + 1] - a[2 * q + 1];
+  }
+}
+
+/// Entry at column offset O (relative to the filter centre, >= -H) of a row difference split
+/// by hessianRowStep2, for output j.
+template <int O, int H>
+inline uint32_t splitAt(const uint32_t* even, const uint32_t* odd, int j) {
+  constexpr int d = O + H;
+  static_assert(d >= 0, "offset inside the split row");
+  if constexpr (d % 2 == 0) {
+    return even[j + d / 2];
+  } else {
+    return odd[j + d / 2];
+  }
+}
+
+/// hessianRowUnit for the step-2 octave: the five row differences are formed at every column
+/// once (SSE2, 1.25 instructions per entry) and split by column parity, so each of the 16
+/// reads per response becomes a unit-stride read the compiler vectorises, instead of 32
+/// strided table reads. Same sums modulo 2^32: bit-identical. `scratch` holds 10 (n + H).
+template <int L>
+void hessianRowStep2(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t stride, int n, float* out,
+                     uint32_t* scratch) {
+  constexpr int H = (3 * L - 1) / 2, M = (L - 1) / 2;
+  const std::ptrdiff_t k = n + H;  // column pairs from -H to 2 (n - 1) + H + 1
+  uint32_t* split[10];
+  for (int a = 0; a < 10; ++a) split[a] = scratch + a * k;
+  const uint32_t* b0 = base - H;
+  rowDifferenceSplit(b0 - (L - 1) * stride, b0 + L * stride, k, split[0], split[1]);  // xx
+  rowDifferenceSplit(b0 - H * stride, b0 + (H + 1) * stride, k, split[2], split[3]);  // yy outer
+  rowDifferenceSplit(b0 - M * stride, b0 + (M + 1) * stride, k, split[4], split[5]);  // yy middle
+  rowDifferenceSplit(b0 - L * stride, b0, k, split[6], split[7]);                      // xy upper
+  rowDifferenceSplit(b0 + stride, b0 + (L + 1) * stride, k, split[8], split[9]);       // xy lower
+  const uint32_t *ee = split[0], *eo = split[1], *foe = split[2], *foo = split[3], *fme = split[4],
+                 *fmo = split[5], *d1e = split[6], *d1o = split[7], *d2e = split[8], *d2o = split[9];
+  const float wl = f.inv_lobe_area, wxy = f.inv_xy_area * kDxyWeight;
+  for (int j = 0; j < n; ++j) {
+    const uint32_t xx_all = splitAt<H + 1, H>(ee, eo, j) - splitAt<-H, H>(ee, eo, j);
+    const uint32_t xx_mid = splitAt<M + 1, H>(ee, eo, j) - splitAt<-M, H>(ee, eo, j);
+    const uint32_t yy_all = splitAt<L, H>(foe, foo, j) - splitAt<-(L - 1), H>(foe, foo, j);
+    const uint32_t yy_mid = splitAt<L, H>(fme, fmo, j) - splitAt<-(L - 1), H>(fme, fmo, j);
+    const uint32_t tl = splitAt<0, H>(d1e, d1o, j) - splitAt<-L, H>(d1e, d1o, j);
+    const uint32_t tr = splitAt<L + 1, H>(d1e, d1o, j) - splitAt<1, H>(d1e, d1o, j);
+    const uint32_t bl = splitAt<0, H>(d2e, d2o, j) - splitAt<-L, H>(d2e, d2o, j);
+    const uint32_t br = splitAt<L + 1, H>(d2e, d2o, j) - splitAt<1, H>(d2e, d2o, j);
+    const int32_t xx = static_cast<int32_t>(xx_all - 3u * xx_mid);
+    const int32_t yy = static_cast<int32_t>(yy_all - 3u * yy_mid);
+    const int32_t xy = static_cast<int32_t>(tl + br - tr - bl);
+    const float dxx = static_cast<float>(xx) * wl, dyy = static_cast<float>(yy) * wl;
+    const float dxy = static_cast<float>(xy) * wxy;
+    out[j] = dxx * dyy - dxy * dxy;
+  }
+}
+
+/// det(H) over grid rows i0..i1 and columns j0..j1 of one layer (`det`, row pitch `cols`)
+/// with the fastest kernel for the filter (hessianLayerUnit, hessianRowStep2, hessianRowFixed,
+/// hessianRow).
+void hessianLayer(const HessianFilter& f, const uint32_t* sum, std::ptrdiff_t stride, int step, int i0, int i1,
+                  int j0, int j1, float* det, std::ptrdiff_t cols, uint32_t* scratch) {
   const int l = f.size / 3;
-#define SEAVIO_SURF_FIXED(LOBE)                                          \
-  case LOBE:                                                             \
-    if (step == 1) {                                                     \
-      hessianRowUnit<LOBE>(f, base, stride, n, out, scratch);            \
-    } else {                                                             \
-      hessianRowFixed<LOBE, false>(f, base, stride, step, n, out);       \
-    }                                                                    \
+  const int n = j1 - j0 + 1;
+  const auto rows = [&](auto&& kernel) {
+    for (int i = i0; i <= i1; ++i) {
+      const uint32_t* base =
+          sum + static_cast<std::ptrdiff_t>(i) * step * stride + static_cast<std::ptrdiff_t>(j0) * step;
+      kernel(base, det + static_cast<std::ptrdiff_t>(i) * cols + j0);
+    }
+  };
+#define SEAVIO_SURF_FIXED(LOBE)                                                              \
+  case LOBE:                                                                                 \
+    if (step == 1) {                                                                         \
+      hessianLayerUnit<LOBE>(f, sum, stride, i0, i1, j0, n, det, cols, scratch);             \
+    } else if (step == 2) {                                                                  \
+      rows([&](const uint32_t* base, float* out) {                                           \
+        hessianRowStep2<LOBE>(f, base, stride, n, out, scratch);                             \
+      });                                                                                    \
+    } else {                                                                                 \
+      rows([&](const uint32_t* base, float* out) {                                           \
+        hessianRowFixed<LOBE, false>(f, base, stride, step, n, out);                         \
+      });                                                                                    \
+    }                                                                                        \
     return;
   // Lobes of the middle layers (the ones computed in full) of octaves 0-3, two layers each.
   switch (l) {
@@ -218,9 +334,9 @@ void hessianRowAny(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t 
   }
 #undef SEAVIO_SURF_FIXED
   if (step == 1) {
-    hessianRow(f, base, 1, n, out);
+    rows([&](const uint32_t* base, float* out) { hessianRow(f, base, 1, n, out); });
   } else {
-    hessianRow(f, base, step, n, out);
+    rows([&](const uint32_t* base, float* out) { hessianRow(f, base, step, n, out); });
   }
 }
 
@@ -239,8 +355,10 @@ inline float hessianAt(const HessianFilter& f, const uint32_t* p) {
 
 #if defined(__GNUC__)
 #define SEAVIO_SURF_INLINE inline __attribute__((always_inline))
+#define SEAVIO_SURF_NOINLINE __attribute__((noinline))
 #else
 #define SEAVIO_SURF_INLINE inline
+#define SEAVIO_SURF_NOINLINE
 #endif
 
 /// Mean grey level of the box x box cell whose top-left corner is at the sub-pixel position
@@ -294,6 +412,33 @@ inline float fastAtan2Deg(float y, float x) {
   return a;
 }
 
+#if defined(__SSE2__)
+/// fastAtan2Deg on four lanes: the same float operations per lane, branches as selects, so
+/// every angle is bit-identical to the scalar one.
+inline __m128 fastAtan2DegSse(__m128 y, __m128 x) {
+  const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+  const __m128 ax = _mm_and_ps(x, abs_mask), ay = _mm_and_ps(y, abs_mask);
+  const __m128 x_major = _mm_cmpge_ps(ax, ay);  // ax >= ay: c = ay / ax, else ax / ay
+  const auto select = [](__m128 m, __m128 a, __m128 b) { return _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b)); };
+  const __m128 num = select(x_major, ay, ax);
+  const __m128 den = _mm_add_ps(select(x_major, ax, ay), _mm_set1_ps(static_cast<float>(DBL_EPSILON)));
+  const __m128 c = _mm_div_ps(num, den), c2 = _mm_mul_ps(c, c);
+  constexpr float kP1 = 0.9997878412794807f * static_cast<float>(180 / CV_PI);
+  constexpr float kP3 = -0.3258083974640975f * static_cast<float>(180 / CV_PI);
+  constexpr float kP5 = 0.1555786518463281f * static_cast<float>(180 / CV_PI);
+  constexpr float kP7 = -0.04432655554792128f * static_cast<float>(180 / CV_PI);
+  __m128 a = _mm_add_ps(_mm_mul_ps(_mm_set1_ps(kP7), c2), _mm_set1_ps(kP5));
+  a = _mm_add_ps(_mm_mul_ps(a, c2), _mm_set1_ps(kP3));
+  a = _mm_add_ps(_mm_mul_ps(a, c2), _mm_set1_ps(kP1));
+  a = _mm_mul_ps(a, c);
+  a = select(x_major, a, _mm_sub_ps(_mm_set1_ps(90.f), a));
+  const __m128 zero = _mm_setzero_ps();
+  a = select(_mm_cmplt_ps(x, zero), _mm_sub_ps(_mm_set1_ps(180.f), a), a);
+  a = select(_mm_cmplt_ps(y, zero), _mm_sub_ps(_mm_set1_ps(360.f), a), a);
+  return a;
+}
+#endif
+
 /// Index of descriptor gradient (r, c) of the 20 x 20 window, stored so that the samples at
 /// the same place in the four 5 x 5 sub-regions of a band are adjacent (vectorised sums).
 constexpr int cellMajor(int r, int c) { return r * kPatch + (c % 5) * 4 + c / 5; }
@@ -313,6 +458,49 @@ inline bool anyAbove(const float* v, float threshold) {
   return any != 0;
 #endif
 }
+
+#if defined(__SSE2__)
+/// Samples (r, c5), (r, 5 + c5), (r, 10 + c5), (r, 15 + c5) of a 21-wide patch row: the same
+/// place in the four 5 x 5 sub-regions of a band, one per lane.
+inline __m128 bandColumn(const float* row, int c5) {
+  return _mm_setr_ps(row[c5], row[5 + c5], row[10 + c5], row[15 + c5]);
+}
+
+/// The 64-element descriptor (before normalisation) from the 21 x 21 patch of cell means and
+/// the Gaussian weights in cellMajor order: the four sub-regions of a band in the four lanes,
+/// gradients formed and summed in the scalar loop's order (r, then c), so every lane performs
+/// the scalar float operations in sequence: bit-identical.
+inline void describe64(const float* patch, const float* weights, float* vec) {
+  const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+  __m128 g0[6], g1[6];  // rows r and r + 1, columns c5 = 0..5 of each sub-region
+  for (int k = 0; k < 6; ++k) g0[k] = bandColumn(patch, k);
+  for (int ci = 0; ci < 4; ++ci) {
+    __m128 sx = _mm_setzero_ps(), sy = _mm_setzero_ps(), sax = _mm_setzero_ps(), say = _mm_setzero_ps();
+    for (int r = ci * 5; r < ci * 5 + 5; ++r) {
+      const float* p1 = patch + (r + 1) * (kPatch + 1);
+      for (int k = 0; k < 6; ++k) g1[k] = bandColumn(p1, k);
+      for (int c5 = 0; c5 < 5; ++c5) {
+        const __m128 w = _mm_loadu_ps(weights + cellMajor(r, c5));
+        // (p0[c + 1] - p0[c] + p1[c + 1] - p1[c]) w and (p1[c] - p0[c] + p1[c + 1] - p0[c + 1]) w
+        const __m128 dx =
+            _mm_mul_ps(_mm_sub_ps(_mm_add_ps(_mm_sub_ps(g0[c5 + 1], g0[c5]), g1[c5 + 1]), g1[c5]), w);
+        const __m128 dy =
+            _mm_mul_ps(_mm_sub_ps(_mm_add_ps(_mm_sub_ps(g1[c5], g0[c5]), g1[c5 + 1]), g0[c5 + 1]), w);
+        sx = _mm_add_ps(sx, dx);
+        sy = _mm_add_ps(sy, dy);
+        sax = _mm_add_ps(sax, _mm_and_ps(dx, abs_mask));
+        say = _mm_add_ps(say, _mm_and_ps(dy, abs_mask));
+      }
+      for (int k = 0; k < 6; ++k) g0[k] = g1[k];
+    }
+    _MM_TRANSPOSE4_PS(sx, sy, sax, say);  // lane cj -> (sum dx, sum dy, sum |dx|, sum |dy|)
+    _mm_storeu_ps(vec + ci * 16, sx);
+    _mm_storeu_ps(vec + ci * 16 + 4, sy);
+    _mm_storeu_ps(vec + ci * 16 + 8, sax);
+    _mm_storeu_ps(vec + ci * 16 + 12, say);
+  }
+}
+#endif
 
 /// Fits a 3D quadratic to the 3 x 3 x 3 neighbourhood (Brown and Lowe 2002, as Bay 2008,
 /// 3.3) and returns the offset of its extremum in grid units, or false if it leaves the cell.
@@ -345,30 +533,125 @@ inline float bilinear(const cv::Mat& img, float x, float y) {
   return img.at<uint8_t>(cy, cx);
 }
 
-/// Cell means at many sub-pixel positions, in passes the compiler vectorises (coordinates,
-/// blend) around one scalar pass of table reads: the same arithmetic as boxMeanInside and
-/// bilinear sample by sample, so the result is bit-identical to calling them one at a time.
-/// Sized for the largest grid sampled per keypoint (the descriptor's 21 x 21).
+/// Cell means at many sub-pixel positions: the same arithmetic as boxMeanInside and bilinear
+/// sample by sample, so the result is bit-identical to calling them one at a time. With SSE2,
+/// four samples per step: corners, fractions and the inside test as vectors, the four integer
+/// placements of each cell as two 64-bit reads per table row, transposed so the bilinear blend
+/// runs on four samples at once (same float operations in the same order per lane). Sized for
+/// the largest grid sampled per keypoint (the descriptor's 21 x 21), padded to whole groups.
 struct CellSampler {
   static constexpr int kMax = 21 * 21;
-  alignas(16) float px[kMax], py[kMax];   // cell centres [px] (inputs)
+  static constexpr int kPad = (kMax + 3) / 4 * 4;
+  alignas(16) float px[kPad] = {}, py[kPad] = {};  // cell centres [px] (inputs)
+#if !defined(__SSE2__)
   alignas(16) float ax[kMax], ay[kMax];   // fractional parts of the top-left corner
   alignas(16) float b[kMax][4];  // the four integer placements (x, y), (x+1, y), (x, y+1), (x+1, y+1)
   alignas(16) int xi[kMax], yi[kMax];     // integer parts of the top-left corner
   alignas(16) int inside[kMax];           // 1 if the 2 x 2 placements lie inside the image
+#endif
 
-  /// out[i] = mean grey level of the box x box cell centred at (px[i], py[i]); `fallback(px,
-  /// py)` for the samples near the border (cellMean's general path).
+  /// out[i] = mean grey level of the box x box cell centred at (px[i], py[i]), i < n; `out`
+  /// has room for n rounded up to a multiple of 4. `fallback(px, py)` for the samples near
+  /// the border (cellMean's general path).
   template <typename Fallback>
-  void sample(int n, int box, float inv_box2, const uint32_t* sum, std::ptrdiff_t stride, const cv::Mat& gray8,
-              float* out, Fallback&& fallback) {
+  // Not inlined: inlined into Surf::run it compiled to more instructions (register pressure).
+  SEAVIO_SURF_NOINLINE void sample(int n, int box, float inv_box2, const uint32_t* sum, std::ptrdiff_t stride,
+                                   const cv::Mat& gray8, float* out, Fallback&& fallback) {
     const int width = gray8.cols, height = gray8.rows;
     const float half = static_cast<float>(box - 1) * 0.5f;
-    // One unsigned comparison per axis: x in [0, x_last] (no sample is inside if x_last < 0).
     const int x_last = width - box - 1, y_last = height - box - 1;
-    const unsigned ux_last = x_last >= 0 && y_last >= 0 ? static_cast<unsigned>(x_last) : 0u;
-    const unsigned uy_last = x_last >= 0 && y_last >= 0 ? static_cast<unsigned>(y_last) : 0u;
+#if defined(__SSE2__)
+    // Offsets are formed in float below: exact only under 2^24; larger images (over ~16 Mpx)
+    // take the general path for every sample (cellMean: the same arithmetic, slower).
+    const int room = x_last >= 0 && y_last >= 0 && static_cast<double>(height + 1) * stride < (1 << 24) &&
+                     static_cast<double>(height + 1) * static_cast<double>(gray8.step[0]) < (1 << 24);
+    const __m128 vhalf = _mm_set1_ps(half), one = _mm_set1_ps(1.f), vinv = _mm_set1_ps(inv_box2);
+    const __m128i minus1 = _mm_set1_epi32(-1);
+    const __m128i xlim = _mm_set1_epi32(x_last + 1), ylim = _mm_set1_epi32(y_last + 1);
+    const std::ptrdiff_t down = box * stride;
+    const std::size_t gstep = gray8.step[0];
+    const uint8_t* g0 = gray8.ptr<uint8_t>(0);
+    // Row pitch of the table (box > 1) or of the image (box 1), for the offsets below.
+    const __m128 vrow = _mm_set1_ps(static_cast<float>(box > 1 ? stride : static_cast<std::ptrdiff_t>(gstep)));
+    for (int i = 0; i < n; i += 4) {
+      const __m128 fx = _mm_sub_ps(_mm_load_ps(px + i), vhalf);
+      const __m128 fy = _mm_sub_ps(_mm_load_ps(py + i), vhalf);
+      // floor: truncate, then step down where truncation rounded up (negative fractions).
+      const __m128i tx = _mm_cvttps_epi32(fx), ty = _mm_cvttps_epi32(fy);
+      const __m128i x = _mm_add_epi32(tx, _mm_castps_si128(_mm_cmpgt_ps(_mm_cvtepi32_ps(tx), fx)));
+      const __m128i y = _mm_add_epi32(ty, _mm_castps_si128(_mm_cmpgt_ps(_mm_cvtepi32_ps(ty), fy)));
+      const __m128 ax = _mm_sub_ps(fx, _mm_cvtepi32_ps(x));
+      const __m128 ay = _mm_sub_ps(fy, _mm_cvtepi32_ps(y));
+      // 0 <= x <= x_last and 0 <= y <= y_last (all false without room for one cell).
+      const __m128i in = _mm_and_si128(_mm_and_si128(_mm_cmpgt_epi32(x, minus1), _mm_cmplt_epi32(x, xlim)),
+                                       _mm_and_si128(_mm_cmpgt_epi32(y, minus1), _mm_cmplt_epi32(y, ylim)));
+      int mask = room ? _mm_movemask_ps(_mm_castsi128_ps(in)) : 0;
+      if (n - i < 4) mask |= 0xF << (n - i);  // lanes past n: no reads, no fallback
+      // Offsets of the top-left placements, y * stride + x, computed in float (exact: the
+      // table has fewer than 2^24 entries, checked by the caller) so four offsets cost one
+      // multiply. Outside lanes read the cell at (0, 0) (valid whenever any cell fits) and
+      // are replaced by the fallback below.
+      const __m128i off = _mm_and_si128(
+          _mm_cvttps_epi32(_mm_add_ps(_mm_mul_ps(_mm_cvtepi32_ps(y), vrow), _mm_cvtepi32_ps(x))), in);
+      const auto lane = [&off](int k) -> std::ptrdiff_t {
+        switch (k) {
+          case 0: return _mm_cvtsi128_si32(off);
+          case 1: return _mm_cvtsi128_si32(_mm_shuffle_epi32(off, 0x55));
+          case 2: return _mm_cvtsi128_si32(_mm_shuffle_epi32(off, 0xAA));
+          default: return _mm_cvtsi128_si32(_mm_shuffle_epi32(off, 0xFF));
+        }
+      };
+      __m128 c0, c1, c2, c3;  // the four placements of lanes 0..3
+      if (!room) {
+        c0 = c1 = c2 = c3 = _mm_setzero_ps();
+      } else if (box > 1) {
+        // Two horizontally adjacent entries are one 64-bit read; rows y and y + 1 share a
+        // register (movq + movhps).
+        const auto pair = [](const uint32_t* a, const uint32_t* c) {
+          return _mm_castps_si128(_mm_loadh_pi(_mm_castsi128_ps(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(a))),
+                                               reinterpret_cast<const __m64*>(c)));
+        };
+        const auto cell = [&](int k) {
+          const uint32_t* p = sum + lane(k);
+          const uint32_t* q = p + stride;
+          const __m128i tl = pair(p, q), tr = pair(p + box, q + box);
+          const __m128i bl = pair(p + down, q + down), br = pair(p + down + box, q + down + box);
+          return _mm_cvtepi32_ps(_mm_add_epi32(_mm_sub_epi32(_mm_sub_epi32(br, tr), bl), tl));
+        };
+        c0 = cell(0);
+        c1 = cell(1);
+        c2 = cell(2);
+        c3 = cell(3);
+      } else {
+        const auto cell = [&](int k) {
+          const uint8_t* p = g0 + lane(k);
+          const uint32_t v = p[0] | (p[1] << 8) | (p[gstep] << 16) | (static_cast<uint32_t>(p[gstep + 1]) << 24);
+          const __m128i z = _mm_setzero_si128();
+          return _mm_cvtepi32_ps(
+              _mm_unpacklo_epi16(_mm_unpacklo_epi8(_mm_cvtsi32_si128(static_cast<int>(v)), z), z));
+        };
+        c0 = cell(0);
+        c1 = cell(1);
+        c2 = cell(2);
+        c3 = cell(3);
+      }
+      _MM_TRANSPOSE4_PS(c0, c1, c2, c3);  // now c0 = placement (x, y) of the four lanes, ...
+      const __m128 bx = _mm_sub_ps(one, ax), by = _mm_sub_ps(one, ay);
+      __m128 r = _mm_add_ps(_mm_mul_ps(by, _mm_add_ps(_mm_mul_ps(bx, c0), _mm_mul_ps(ax, c1))),
+                            _mm_mul_ps(ay, _mm_add_ps(_mm_mul_ps(bx, c2), _mm_mul_ps(ax, c3))));
+      if (box > 1) r = _mm_mul_ps(r, vinv);
+      _mm_storeu_ps(out + i, r);
+      if (mask != 0xF) {
+        for (int k = 0; k < 4; ++k) {
+          if (!(mask >> k & 1)) out[i + k] = fallback(px[i + k], py[i + k]);
+        }
+      }
+    }
+#else
     const int room = x_last >= 0 && y_last >= 0;
+    // One unsigned comparison per axis: x in [0, x_last] (no sample is inside if x_last < 0).
+    const unsigned ux_last = room ? static_cast<unsigned>(x_last) : 0u;
+    const unsigned uy_last = room ? static_cast<unsigned>(y_last) : 0u;
     int n_out = 0;
     for (int i = 0; i < n; ++i) {
       const float fx = px[i] - half, fy = py[i] - half;
@@ -392,22 +675,10 @@ struct CellSampler {
         }
         const uint32_t* p = sum + static_cast<std::ptrdiff_t>(yi[i]) * stride + xi[i];
         const uint32_t* q = p + stride;
-#if defined(__SSE2__)
-        // The four placements at once: horizontally adjacent table entries are one 64-bit read.
-        const auto pair = [](const uint32_t* a, const uint32_t* c) {
-          return _mm_unpacklo_epi64(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(a)),
-                                    _mm_loadl_epi64(reinterpret_cast<const __m128i*>(c)));
-        };
-        const __m128i tl = pair(p, q), tr = pair(p + box, q + box);
-        const __m128i bl = pair(p + down, q + down), br = pair(p + down + box, q + down + box);
-        const __m128i sums = _mm_add_epi32(_mm_sub_epi32(_mm_sub_epi32(br, tr), bl), tl);
-        _mm_storeu_ps(bi, _mm_cvtepi32_ps(sums));
-#else
         bi[0] = static_cast<float>(static_cast<int32_t>(p[down + box] - p[box] - p[down] + p[0]));
         bi[1] = static_cast<float>(static_cast<int32_t>(p[down + box + 1] - p[box + 1] - p[down + 1] + p[1]));
         bi[2] = static_cast<float>(static_cast<int32_t>(q[down + box] - q[box] - q[down] + q[0]));
         bi[3] = static_cast<float>(static_cast<int32_t>(q[down + box + 1] - q[box + 1] - q[down + 1] + q[1]));
-#endif
       }
       for (int i = 0; i < n; ++i) {
         out[i] = ((1.f - ay[i]) * ((1.f - ax[i]) * b[i][0] + ax[i] * b[i][1]) +
@@ -437,6 +708,7 @@ struct CellSampler {
     for (int i = 0; i < n; ++i) {
       if (!inside[i]) out[i] = fallback(px[i], py[i]);
     }
+#endif
   }
 };
 
@@ -472,28 +744,49 @@ Surf::Surf(SurfParams params) : params_(params) {
           std::exp(-static_cast<float>(u * u + v * v) / (2.f * kOriSigma * kOriSigma)));
     }
   }
+  // Rows of the disc as runs (v, first u, count) for the four-lane gradient loop, and the
+  // weights padded to a whole last group.
+  for (std::size_t q = 0; q < ori_offsets_.size(); ++q) {
+    if (ori_rows_.empty() || ori_rows_.back()[0] != ori_offsets_[q].y) {
+      ori_rows_.emplace_back(ori_offsets_[q].y, ori_offsets_[q].x, 0);
+    }
+    ++ori_rows_.back()[2];
+  }
+  ori_weights_.resize(ori_offsets_.size() + 3, 0.f);
   desc_weights_.resize(kPatch * kPatch);
   for (int r = 0; r < kPatch; ++r) {
     for (int c = 0; c < kPatch; ++c) {
       const float dr = static_cast<float>(r) - (kPatch - 1) / 2.f;
       const float dc = static_cast<float>(c) - (kPatch - 1) / 2.f;
-      desc_weights_[r * kPatch + c] = std::exp(-(dr * dr + dc * dc) / (2.f * kDescSigma * kDescSigma));
+      desc_weights_[cellMajor(r, c)] = std::exp(-(dr * dr + dc * dc) / (2.f * kDescSigma * kDescSigma));
     }
   }
 }
 
 void Surf::detectAndCompute(const cv::Mat& gray8, double hessian_threshold,
                             std::vector<cv::KeyPoint>& keypoints, cv::Mat& descriptors) const {
-  run(gray8, hessian_threshold, keypoints, &descriptors);
+  SurfWorkspace workspace;
+  run(gray8, hessian_threshold, keypoints, &descriptors, workspace);
 }
 
 void Surf::detect(const cv::Mat& gray8, double hessian_threshold,
                   std::vector<cv::KeyPoint>& keypoints) const {
-  run(gray8, hessian_threshold, keypoints, nullptr);
+  SurfWorkspace workspace;
+  run(gray8, hessian_threshold, keypoints, nullptr, workspace);
+}
+
+void Surf::detectAndCompute(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
+                            cv::Mat& descriptors, SurfWorkspace& workspace) const {
+  run(gray8, hessian_threshold, keypoints, &descriptors, workspace);
+}
+
+void Surf::detect(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
+                  SurfWorkspace& workspace) const {
+  run(gray8, hessian_threshold, keypoints, nullptr, workspace);
 }
 
 void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
-               cv::Mat* descriptors) const {
+               cv::Mat* descriptors, SurfWorkspace& workspace) const {
   keypoints.clear();
   // One allocation up front instead of a dozen regrowths (a caller reusing its vector pays none).
   keypoints.reserve(1024);
@@ -503,7 +796,8 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
     throw std::invalid_argument("Surf: expected an 8-bit single-channel image, got type " +
                                 std::to_string(gray8.type()));
   }
-  const IntegralImage integral(gray8);
+  workspace.integral_.compute(gray8);
+  const IntegralImage& integral = workspace.integral_;
   const int width = gray8.cols, height = gray8.rows;
   const std::ptrdiff_t stride = integral.stride();
   const uint32_t* sum = integral.data();
@@ -516,10 +810,16 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
   // demand at the few positions that survive the threshold and the in-layer and full-layer
   // comparisons. That halves the box-filter work of the default 4-layer octave.
   const int n_full = n_layers - 2;
-  std::size_t plane_capacity = 0;
-  std::unique_ptr<float[]> layers;  // uninitialised: only the valid ranges are written and read
-  // Row differences of hessianRowUnit: 5 (n + 3 L) entries, n <= width, L <= 49.
-  const std::unique_ptr<uint32_t[]> row_scratch(new uint32_t[5 * (static_cast<std::size_t>(width) + 3 * 49 + 8)]);
+  // Response planes, uninitialised: only the valid ranges are written and read.
+  std::size_t& plane_capacity = workspace.layers_capacity_;
+  std::unique_ptr<float[]>& layers = workspace.layers_;
+  // hessianLayerUnit: (L + 4) (n + 3 L) entries, n <= width, L <= 49.
+  const std::size_t scratch_size = (4 + 49) * (static_cast<std::size_t>(width) + 3 * 49 + 8);
+  if (scratch_size > workspace.scratch_capacity_) {
+    workspace.scratch_.reset(new uint32_t[scratch_size]);
+    workspace.scratch_capacity_ = scratch_size;
+  }
+  uint32_t* const row_scratch = workspace.scratch_.get();
   for (int octave = 0; octave < params_.octaves; ++octave) {
     const int step = 1 << octave;
     const int rows = (height - 1) / step + 1, cols = (width - 1) / step + 1;
@@ -544,11 +844,7 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
       validRange(filters[layer].size, step, height, i0, i1);
       validRange(filters[layer].size, step, width, j0, j1);
       float* det = layers.get() + plane * (layer - 1);
-      for (int i = i0; i <= i1; ++i) {
-        const uint32_t* base = centre(i, j0);
-        float* out = det + static_cast<std::size_t>(i) * cols + j0;
-        hessianRowAny(filters[layer], base, stride, step, j1 - j0 + 1, out, row_scratch.get());
-      }
+      hessianLayer(filters[layer], sum, stride, step, i0, i1, j0, j1, det, cols, row_scratch);
     }
 
     for (int layer = 1; layer <= n_full; ++layer) {
@@ -630,9 +926,12 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
   const int dsize = descriptorSize();
   cv::Mat desc;
   if (descriptors != nullptr) desc.create(static_cast<int>(keypoints.size()), dsize, CV_32F);
-  std::vector<float> gx(ori_offsets_.size()), gy(ori_offsets_.size()), ang(ori_offsets_.size());
+  // Gradient samples of the orientation disc (113 within radius 6), room for a whole last group.
+  constexpr int kOriMax = 128;
+  static_assert(kOriSamples + 3 <= kOriMax, "the disc and a padded last group fit");
+  alignas(16) std::array<float, kOriMax> gx{}, gy{}, ang{};
   std::array<float, 360 + kOriWindowDeg> bin_x{}, bin_y{};
-  std::array<float, (kPatch + 1) * (kPatch + 1)> patch{};
+  alignas(16) std::array<float, CellSampler::kPad> patch{};
   std::array<float, kPatch * kPatch> pdx{}, pdy{};
   // Mean grey level of the box x box cell centred at (px, py) [px]: the integral image at the
   // sub-pixel centre (bilinear blend of the four integer placements); plain bilinear for box 1.
@@ -667,7 +966,7 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
       // rotation 1.75 deg instead of 5.6.
       constexpr int kG = kOriRadius + 2;
       constexpr int kGW = 2 * kG + 1;
-      std::array<float, kGW * kGW> grid;
+      alignas(16) std::array<float, (kGW * kGW + 3) / 4 * 4> grid;
       const int obox = std::max(1, static_cast<int>(std::lround(3.f * s)));  // smoothing box [px]
       const float inv_obox2 = 1.f / static_cast<float>(obox * obox);
       for (int v = -kG; v <= kG; ++v) {
@@ -679,6 +978,32 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
       sampler.sample(kGW * kGW, obox, inv_obox2, sum, stride, gray8, grid.data(),
                      [&](float x, float y) { return cellMean(x, y, obox, inv_obox2); });
       std::size_t n = 0;
+#if defined(__SSE2__)
+      // Four samples of a disc row at once (same operations per lane as the scalar loop below;
+      // lanes past a row's end are overwritten by the next row or ignored).
+      for (const cv::Vec3i& seg : ori_rows_) {
+        const float* row = grid.data() + (seg[0] + kG) * kGW + (seg[1] + kG);
+        for (int k = 0; k < seg[2]; k += 4) {
+          const float* g = row + k;
+          const auto at = [g](int o) { return _mm_loadu_ps(g + o); };
+          const __m128 three = _mm_set1_ps(3.f), ten = _mm_set1_ps(10.f);
+          const __m128 hx = _mm_add_ps(
+              _mm_add_ps(_mm_mul_ps(three, _mm_sub_ps(at(-2 * kGW + 2), at(-2 * kGW - 2))),
+                         _mm_mul_ps(ten, _mm_sub_ps(at(2), at(-2)))),
+              _mm_mul_ps(three, _mm_sub_ps(at(2 * kGW + 2), at(2 * kGW - 2))));
+          const __m128 hy = _mm_add_ps(
+              _mm_add_ps(_mm_mul_ps(three, _mm_sub_ps(at(2 * kGW - 2), at(-2 * kGW - 2))),
+                         _mm_mul_ps(ten, _mm_sub_ps(at(2 * kGW), at(-2 * kGW)))),
+              _mm_mul_ps(three, _mm_sub_ps(at(2 * kGW + 2), at(-2 * kGW + 2))));
+          const __m128 w = _mm_loadu_ps(ori_weights_.data() + n + k);
+          const __m128 vx = _mm_mul_ps(hx, w), vy = _mm_mul_ps(hy, w);
+          _mm_storeu_ps(gx.data() + n + k, vx);
+          _mm_storeu_ps(gy.data() + n + k, vy);
+          _mm_storeu_ps(ang.data() + n + k, fastAtan2DegSse(vy, vx));
+        }
+        n += static_cast<std::size_t>(seg[2]);
+      }
+#else
       for (std::size_t q = 0; q < ori_offsets_.size(); ++q) {
         const float* g = grid.data() + (ori_offsets_[q].y + kG) * kGW + (ori_offsets_[q].x + kG);
         const float hx = 3.f * (g[-2 * kGW + 2] - g[-2 * kGW - 2]) + 10.f * (g[2] - g[-2]) +
@@ -690,19 +1015,23 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
         ang[n] = fastAtan2Deg(gy[n], gx[n]);
         ++n;
       }
+#endif
       if (n == 0) continue;
       // Sliding 60 deg sector over 1 deg bins, in 1 deg steps (OpenCV: 5); the longest summed
       // vector gives the direction.
       std::fill(bin_x.begin(), bin_x.end(), 0.f);
       std::fill(bin_y.begin(), bin_y.end(), 0.f);
+      std::array<uint64_t, (360 + kOriWindowDeg + 63) / 64 + 1> used{};  // bins that got a sample
       for (std::size_t q = 0; q < n; ++q) {
         const int b = std::min(359, static_cast<int>(ang[q]));
         bin_x[b] += gx[q];
         bin_y[b] += gy[q];
+        used[b >> 6] |= uint64_t{1} << (b & 63);
       }
       for (int b = 0; b < kOriWindowDeg; ++b) {
         bin_x[360 + b] = bin_x[b];
         bin_y[360 + b] = bin_y[b];
+        if (used[b >> 6] >> (b & 63) & 1) used[(360 + b) >> 6] |= uint64_t{1} << ((360 + b) & 63);
       }
       float wx = 0.f, wy = 0.f;
       for (int b = 0; b < kOriWindowDeg; ++b) {
@@ -710,14 +1039,31 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
         wy += bin_y[b];
       }
       float best = -1.f, best_x = 0.f, best_y = 0.f;
-      for (int start = 0; start < 360; ++start) {
+      const auto consider = [&] {
         if (wx * wx + wy * wy > best) {
           best = wx * wx + wy * wy;
           best_x = wx;
           best_y = wy;
         }
-        wx += bin_x[start + kOriWindowDeg] - bin_x[start];
-        wy += bin_y[start + kOriWindowDeg] - bin_y[start];
+      };
+      // The sector slides over mostly empty bins (113 samples, 360 bins). Where both the bin
+      // entering and the one leaving are empty (+0) the update adds +0 and the sum, hence its
+      // length, is unchanged, so the comparison can't pass either: only the starts whose
+      // entering or leaving bin got a sample are visited, in order. Bit-identical to the
+      // plain slide over all 360 starts.
+      consider();
+      for (int w = 0; w * 64 < 360; ++w) {
+        constexpr int kShift = kOriWindowDeg % 64;  // bit of the entering bin, from the word above
+        static_assert(kOriWindowDeg < 64, "entering bin within the next word");
+        uint64_t changes = used[w] | (used[w] >> kShift) | (used[w + 1] << (64 - kShift));
+        if (w * 64 + 64 > 360) changes &= (uint64_t{1} << (360 - w * 64)) - 1;
+        while (changes != 0) {
+          const int start = w * 64 + __builtin_ctzll(changes);
+          changes &= changes - 1;
+          wx += bin_x[start + kOriWindowDeg] - bin_x[start];
+          wy += bin_y[start + kOriWindowDeg] - bin_y[start];
+          if (start + 1 < 360) consider();
+        }
       }
       angle_deg = fastAtan2Deg(best_y, best_x);
       if (angle_deg >= 360.f) angle_deg -= 360.f;
@@ -744,62 +1090,69 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
       }
       sampler.sample((kPatch + 1) * (kPatch + 1), box, inv_box2, sum, stride, gray8, patch.data(),
                      [&](float x, float y) { return cellMean(x, y, box, inv_box2); });
-      for (int r = 0; r < kPatch; ++r) {
-        const float* p0 = patch.data() + r * (kPatch + 1);
-        const float* p1 = p0 + (kPatch + 1);
-        for (int cj = 0; cj < 4; ++cj) {
-          for (int c5 = 0; c5 < 5; ++c5) {
-            const int c = cj * 5 + c5;
-            const float w = desc_weights_[r * kPatch + c];
-            pdx[r * kPatch + c5 * 4 + cj] = (p0[c + 1] - p0[c] + p1[c + 1] - p1[c]) * w;
-            pdy[r * kPatch + c5 * 4 + cj] = (p1[c] - p0[c] + p1[c + 1] - p0[c + 1]) * w;
-          }
-        }
-      }
       float* vec = desc.ptr<float>(static_cast<int>(kept));
-      if (params_.extended) {
-        std::fill(vec, vec + dsize, 0.f);
-        float* cell = vec;
-        for (int ci = 0; ci < 4; ++ci) {
+#if defined(__SSE2__)
+      if (!params_.extended) {
+        describe64(patch.data(), desc_weights_.data(), vec);
+      } else
+#endif
+      {  // 128 floats, or no SSE2: scalar Haar responses, then the sums
+        for (int r = 0; r < kPatch; ++r) {
+          const float* p0 = patch.data() + r * (kPatch + 1);
+          const float* p1 = p0 + (kPatch + 1);
           for (int cj = 0; cj < 4; ++cj) {
-            for (int r = ci * 5; r < ci * 5 + 5; ++r) {
-              for (int c = cj * 5; c < cj * 5 + 5; ++c) {
-                const float tx = pdx[cellMajor(r, c)], ty = pdy[cellMajor(r, c)];
-                // Sums split by the sign of the other component (Bay 2008, 4.2, SURF-128).
-                const int oy = ty >= 0.f ? 0 : 2;
-                cell[oy] += tx;
-                cell[oy + 1] += std::abs(tx);
-                const int ox = tx >= 0.f ? 4 : 6;
-                cell[ox] += ty;
-                cell[ox + 1] += std::abs(ty);
-              }
+            for (int c5 = 0; c5 < 5; ++c5) {
+              const int c = cj * 5 + c5;
+              const float w = desc_weights_[cellMajor(r, c)];
+              pdx[r * kPatch + c5 * 4 + cj] = (p0[c + 1] - p0[c] + p1[c + 1] - p1[c]) * w;
+              pdy[r * kPatch + c5 * 4 + cj] = (p1[c] - p0[c] + p1[c + 1] - p0[c + 1]) * w;
             }
-            cell += 8;
           }
         }
-      } else {
-        // The four sub-regions of a band side by side (cellMajor), each summed in the order
-        // r, c of the plain loop: the same sums, four at a time.
-        for (int ci = 0; ci < 4; ++ci) {
-          std::array<float, 4> sx{}, sy{}, sax{}, say{};
-          for (int r = ci * 5; r < ci * 5 + 5; ++r) {
-            for (int c5 = 0; c5 < 5; ++c5) {
-              const float* tx = pdx.data() + cellMajor(r, c5);
-              const float* ty = pdy.data() + cellMajor(r, c5);
-              for (int cj = 0; cj < 4; ++cj) {
-                sx[cj] += tx[cj];
-                sy[cj] += ty[cj];
-                sax[cj] += std::abs(tx[cj]);
-                say[cj] += std::abs(ty[cj]);
+        if (params_.extended) {
+          std::fill(vec, vec + dsize, 0.f);
+          float* cell = vec;
+          for (int ci = 0; ci < 4; ++ci) {
+            for (int cj = 0; cj < 4; ++cj) {
+              for (int r = ci * 5; r < ci * 5 + 5; ++r) {
+                for (int c = cj * 5; c < cj * 5 + 5; ++c) {
+                  const float tx = pdx[cellMajor(r, c)], ty = pdy[cellMajor(r, c)];
+                  // Sums split by the sign of the other component (Bay 2008, 4.2, SURF-128).
+                  const int oy = ty >= 0.f ? 0 : 2;
+                  cell[oy] += tx;
+                  cell[oy + 1] += std::abs(tx);
+                  const int ox = tx >= 0.f ? 4 : 6;
+                  cell[ox] += ty;
+                  cell[ox + 1] += std::abs(ty);
+                }
               }
+              cell += 8;
             }
           }
-          for (int cj = 0; cj < 4; ++cj) {
-            float* cell = vec + (ci * 4 + cj) * 4;
-            cell[0] = sx[cj];
-            cell[1] = sy[cj];
-            cell[2] = sax[cj];
-            cell[3] = say[cj];
+        } else {
+          // The four sub-regions of a band side by side (cellMajor), each summed in the order
+          // r, c of the plain loop: the same sums, four at a time.
+          for (int ci = 0; ci < 4; ++ci) {
+            std::array<float, 4> sx{}, sy{}, sax{}, say{};
+            for (int r = ci * 5; r < ci * 5 + 5; ++r) {
+              for (int c5 = 0; c5 < 5; ++c5) {
+                const float* tx = pdx.data() + cellMajor(r, c5);
+                const float* ty = pdy.data() + cellMajor(r, c5);
+                for (int cj = 0; cj < 4; ++cj) {
+                  sx[cj] += tx[cj];
+                  sy[cj] += ty[cj];
+                  sax[cj] += std::abs(tx[cj]);
+                  say[cj] += std::abs(ty[cj]);
+                }
+              }
+            }
+            for (int cj = 0; cj < 4; ++cj) {
+              float* cell = vec + (ci * 4 + cj) * 4;
+              cell[0] = sx[cj];
+              cell[1] = sy[cj];
+              cell[2] = sax[cj];
+              cell[3] = say[cj];
+            }
           }
         }
       }

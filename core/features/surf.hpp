@@ -3,10 +3,15 @@
 /// Features", CVIU 2008), written from the paper and OpenCV 2.x's nonfree implementation
 /// because Debian's OpenCV ships without the nonfree module. The paper uses SURF for its
 /// features (section III-B).
+#include <cstddef>
+#include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
+
+#include "core/features/integral_image.hpp"
 
 namespace seavio::features {
 
@@ -24,6 +29,22 @@ struct SurfParams {
 /// Every problem with `p`, one message per bad key ("surf.octaves must be ..."); empty if
 /// valid.
 std::vector<std::string> validate(const SurfParams& p);
+
+/// The buffers of one SURF call (integral image, response planes, row scratch), kept for the
+/// next call: repeated calls on images of the same size allocate nothing but their outputs.
+/// One workspace serves one call at a time (one per thread).
+class SurfWorkspace {
+ public:
+  SurfWorkspace() = default;
+
+ private:
+  friend class Surf;
+  IntegralImage integral_;
+  std::unique_ptr<float[]> layers_;
+  std::size_t layers_capacity_ = 0;  // floats
+  std::unique_ptr<uint32_t[]> scratch_;
+  std::size_t scratch_capacity_ = 0;  // entries
+};
 
 /// The SURF detector/descriptor. Immutable after construction, so one object may serve the
 /// left and right images from two threads at once.
@@ -57,16 +78,28 @@ class Surf {
   void detect(const cv::Mat& gray8, double hessian_threshold,
               std::vector<cv::KeyPoint>& keypoints) const;
 
+  /// As above with the caller's buffers (~13 bytes per pixel of the largest image), so that
+  /// repeated calls allocate only their outputs. The overloads without a workspace make a
+  /// fresh one per call: core keeps no hidden per-thread state; the per-frame path passes the
+  /// workspace its owner keeps (odometry::FrontendWorkspace, one per image side).
+  void detectAndCompute(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
+                        cv::Mat& descriptors, SurfWorkspace& workspace) const;
+  void detect(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
+              SurfWorkspace& workspace) const;
+
  private:
   void run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
-           cv::Mat* descriptors) const;
+           cv::Mat* descriptors, SurfWorkspace& workspace) const;
 
   SurfParams params_;
   /// Orientation samples: integer offsets (in units of s) inside radius 6 and their Gaussian
   /// weights (sigma 2.5 s, as OpenCV).
   std::vector<cv::Point> ori_offsets_;
-  std::vector<float> ori_weights_;
-  /// Gaussian weights (sigma 3.3 sample spacings) of the 20 x 20 descriptor gradients.
+  std::vector<float> ori_weights_;  // padded with 3 zeros (four-lane loop)
+  /// The disc's rows as (v, first u, count), in the order of ori_offsets_.
+  std::vector<cv::Vec3i> ori_rows_;
+  /// Gaussian weights (sigma 3.3 sample spacings) of the 20 x 20 descriptor gradients, in
+  /// cellMajor order (the four sub-regions of a band adjacent, as the four-lane sums read them).
   std::vector<float> desc_weights_;
 };
 

@@ -158,6 +158,17 @@ RansacResult QuadrifocalRansac::estimate(std::span<const QuadMatch> matches,
                                          const Eigen::Isometry3d& T_prev_curr_prior,
                                          std::mt19937& rng) {
   RansacResult result;
+  estimate(matches, T_prev_curr_prior, rng, result);
+  return result;
+}
+
+void QuadrifocalRansac::estimate(std::span<const QuadMatch> matches,
+                                 const Eigen::Isometry3d& T_prev_curr_prior, std::mt19937& rng,
+                                 RansacResult& result) {
+  // Every field as a fresh result has it, the inlier list's capacity kept.
+  std::vector<uint32_t> inliers = std::move(result.inliers);
+  inliers.clear();
+  result = RansacResult{};
   const bool prior_ok = finite(T_prev_curr_prior);
   result.T_prev_curr = prior_ok ? T_prev_curr_prior : Eigen::Isometry3d::Identity();
   matches_ = matches;
@@ -174,7 +185,8 @@ RansacResult QuadrifocalRansac::estimate(std::span<const QuadMatch> matches,
   const int need = std::max(3, params_.min_inliers);
   if (int(usable_.size()) < need) {
     result.status = RansacStatus::kTooFewMatches;
-    return result;
+    result.inliers = std::move(inliers);
+    return;
   }
 
   Eigen::Isometry3d best_T = result.T_prev_curr;
@@ -235,12 +247,12 @@ RansacResult QuadrifocalRansac::estimate(std::span<const QuadMatch> matches,
   if (best.inliers < need) {
     result.status = degenerate >= it && it > 0 ? RansacStatus::kDegenerate
                                                : RansacStatus::kNoConsensus;
-    return result;
+    result.inliers = std::move(inliers);
+    return;
   }
 
   // Refine, re-select with the better motion, refine again (section III-C).
   Eigen::Isometry3d T = best_T;
-  std::vector<uint32_t> inliers;
   inliers.reserve(usable_.size());
   selectInliers(T, inliers);
   double rms = 0;
@@ -253,14 +265,15 @@ RansacResult QuadrifocalRansac::estimate(std::span<const QuadMatch> matches,
   }
   if (int(inliers.size()) < need || !finite(T) || !cov.allFinite() || !std::isfinite(rms)) {
     result.status = RansacStatus::kNoConsensus;
-    return result;
+    inliers.clear();  // a failure reports no inliers, as a fresh result does
+    result.inliers = std::move(inliers);
+    return;
   }
   result.status = RansacStatus::kOk;
   result.T_prev_curr = T;
   result.inliers = std::move(inliers);
   result.rms_px = rms;
   result.covariance = cov;
-  return result;
 }
 
 // Why full four-view bundle adjustment rather than a structure-less transfer error: the

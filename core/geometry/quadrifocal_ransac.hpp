@@ -58,7 +58,7 @@ struct RansacResult {
 /// Quadrifocal-tensor RANSAC (paper section III-C). For a calibrated rig the tensor is fixed by
 /// the 6-DoF motion, so a hypothesis is a motion: 3 matches triangulated in both pairs, aligned
 /// in closed form (Umeyama). No I/O; no allocation in estimate() after reserve() apart from the
-/// returned inlier list.
+/// returned inlier list (none at all with the overload writing into a kept RansacResult).
 class QuadrifocalRansac {
  public:
   QuadrifocalRansac(const camera::RectifiedRig& rig, const QuadRansacParams& params);
@@ -69,6 +69,10 @@ class QuadrifocalRansac {
   [[nodiscard]] RansacResult estimate(std::span<const QuadMatch> matches,
                                       const Eigen::Isometry3d& T_prev_curr_prior,
                                       std::mt19937& rng);
+  /// The same into `out`, whose inlier list keeps its capacity from earlier calls (issue 8: a
+  /// caller that keeps `out` across frames allocates nothing here once warm).
+  void estimate(std::span<const QuadMatch> matches, const Eigen::Isometry3d& T_prev_curr_prior,
+                std::mt19937& rng, RansacResult& out);
 
   const QuadRansacParams& params() const { return params_; }
 

@@ -21,38 +21,37 @@ bool sameLaplacianSign(const cv::KeyPoint& a, const cv::KeyPoint& b) {
   return a.class_id == b.class_id || a.class_id < 0 || b.class_id < 0;
 }
 
-struct Best {
-  int index = -1;
-  float distance = std::numeric_limits<float>::max();
-  float second = std::numeric_limits<float>::max();
-  void offer(int i, float d) {
-    if (d < distance) {
-      second = distance;
-      distance = d;
-      index = i;
-    } else if (d < second) {
-      second = d;
-    }
-  }
-};
+using Best = StereoMatchWorkspace::Best;
 
 }  // namespace
 
 std::vector<StereoPoint> matchStereo(const std::vector<cv::KeyPoint>& left, const cv::Mat& left_descriptors,
                                      const std::vector<cv::KeyPoint>& right, const cv::Mat& right_descriptors,
                                      const camera::RectifiedRig& rig, const StereoMatchParams& params) {
+  StereoMatchWorkspace ws;
   std::vector<StereoPoint> out;
-  if (left.empty() || right.empty() || rig.f_px <= 0 || rig.baseline_m <= 0) return out;
+  matchStereo(left, left_descriptors, right, right_descriptors, rig, params, ws, out);
+  return out;
+}
+
+void matchStereo(const std::vector<cv::KeyPoint>& left, const cv::Mat& left_descriptors,
+                 const std::vector<cv::KeyPoint>& right, const cv::Mat& right_descriptors,
+                 const camera::RectifiedRig& rig, const StereoMatchParams& params, StereoMatchWorkspace& ws,
+                 std::vector<StereoPoint>& out) {
+  out.clear();
+  if (left.empty() || right.empty() || rig.f_px <= 0 || rig.baseline_m <= 0) return;
   const double d_min = rig.disparityAt(params.max_range_m);
   const double d_max = rig.disparityAt(params.min_range_m);
   const float max_dist = descriptorThreshold(left_descriptors, params.max_descriptor_distance);
   const float row_tol = static_cast<float>(params.max_row_difference_px);
 
   // Right keypoints sorted by row so each left keypoint scans only a thin band.
-  std::vector<int> by_row(right.size());
+  std::vector<int>& by_row = ws.by_row;
+  by_row.resize(right.size());
   std::iota(by_row.begin(), by_row.end(), 0);
   std::sort(by_row.begin(), by_row.end(), [&](int a, int b) { return right[a].pt.y < right[b].pt.y; });
-  std::vector<float> rows(by_row.size());
+  std::vector<float>& rows = ws.rows;
+  rows.resize(by_row.size());
   for (std::size_t i = 0; i < by_row.size(); ++i) rows[i] = right[by_row[i]].pt.y;
 
   auto candidates = [&](float y) {
@@ -61,8 +60,10 @@ std::vector<StereoPoint> matchStereo(const std::vector<cv::KeyPoint>& left, cons
     return std::pair<std::ptrdiff_t, std::ptrdiff_t>{lo, hi};
   };
 
-  std::vector<Best> best_left(left.size());
-  std::vector<Best> best_right(right.size());
+  std::vector<Best>& best_left = ws.best_left;
+  std::vector<Best>& best_right = ws.best_right;
+  best_left.assign(left.size(), Best{});
+  best_right.assign(right.size(), Best{});
   for (std::size_t l = 0; l < left.size(); ++l) {
     const cv::KeyPoint& kl = left[l];
     const auto [lo, hi] = candidates(kl.pt.y);
@@ -95,7 +96,6 @@ std::vector<StereoPoint> matchStereo(const std::vector<cv::KeyPoint>& left, cons
     if (!sp.p_R0.allFinite()) continue;
     out.push_back(sp);
   }
-  return out;
 }
 
 }  // namespace seavio::matching

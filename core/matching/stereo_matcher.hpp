@@ -1,6 +1,7 @@
 #pragma once
 /// Stereo matching along rectified rows and triangulation (paper section III, "spatially
 /// matched using epipolar constraints ... back-projection into 3D space").
+#include <limits>
 #include <vector>
 
 #include <Eigen/Core>
@@ -28,6 +29,29 @@ struct StereoPoint {
   Eigen::Vector3f p_R0 = Eigen::Vector3f::Zero();      ///< triangulated point in R0 [m]
 };
 
+/// Scratch of matchStereo kept across frames by its owner (Frontend's workspace), so a warm
+/// call allocates nothing (issue 8): vectors are cleared and refilled, never freed.
+struct StereoMatchWorkspace {
+  /// Best and second-best candidate of one keypoint (ratio test, left-right check).
+  struct Best {
+    int index = -1;
+    float distance = std::numeric_limits<float>::max();
+    float second = std::numeric_limits<float>::max();
+    void offer(int i, float d) {
+      if (d < distance) {
+        second = distance;
+        distance = d;
+        index = i;
+      } else if (d < second) {
+        second = d;
+      }
+    }
+  };
+  std::vector<int> by_row;   ///< right keypoints sorted by row
+  std::vector<float> rows;   ///< their rows
+  std::vector<Best> best_left, best_right;
+};
+
 /// Matches left to right keypoints on (nearly) the same rectified row within the disparity
 /// window, by descriptor distance with ratio test and left-right consistency, then
 /// triangulates. Keypoints whose `class_id` holds the sign of the Laplacian (SURF) are only
@@ -35,6 +59,12 @@ struct StereoPoint {
 std::vector<StereoPoint> matchStereo(const std::vector<cv::KeyPoint>& left, const cv::Mat& left_descriptors,
                                      const std::vector<cv::KeyPoint>& right, const cv::Mat& right_descriptors,
                                      const camera::RectifiedRig& rig, const StereoMatchParams& params);
+/// The same into `out` (cleared first), with the scratch of `ws`: identical results, and no
+/// allocation once `ws` and `out` have grown to the frame's size.
+void matchStereo(const std::vector<cv::KeyPoint>& left, const cv::Mat& left_descriptors,
+                 const std::vector<cv::KeyPoint>& right, const cv::Mat& right_descriptors,
+                 const camera::RectifiedRig& rig, const StereoMatchParams& params, StereoMatchWorkspace& ws,
+                 std::vector<StereoPoint>& out);
 
 /// Threshold in the descriptor's own unit: `max_descriptor_distance` for float descriptors,
 /// scaled to bits for binary ones.

@@ -9,13 +9,28 @@
 namespace seavio::matching {
 namespace {
 
-/// Uniform grid over the current left image so a window query touches few points.
+/// Uniform grid over the current left image so a window query touches few points. Flat
+/// (a counting sort of the points by cell into the workspace): the points of a cell keep
+/// their ascending order, so queries visit them exactly as a vector per cell would.
 class PixelGrid {
  public:
-  PixelGrid(const std::vector<StereoPoint>& pts, int width, int height, int cell_px)
-      : cell_(cell_px), cols_(std::max(1, (width + cell_px - 1) / cell_px)), rows_(std::max(1, (height + cell_px - 1) / cell_px)) {
-    cells_.assign(static_cast<std::size_t>(cols_ * rows_), {});
-    for (std::size_t i = 0; i < pts.size(); ++i) cells_[cellOf(pts[i].uv_left)].push_back(static_cast<int>(i));
+  PixelGrid(const std::vector<StereoPoint>& pts, int width, int height, int cell_px, std::vector<int>& start,
+            std::vector<int>& items)
+      : cell_(cell_px),
+        cols_(std::max(1, (width + cell_px - 1) / cell_px)),
+        rows_(std::max(1, (height + cell_px - 1) / cell_px)),
+        start_(start),
+        items_(items) {
+    const std::size_t cells = static_cast<std::size_t>(cols_ * rows_);
+    start_.assign(cells + 1, 0);
+    for (const StereoPoint& p : pts) ++start_[cellOf(p.uv_left) + 1];
+    for (std::size_t c = 0; c < cells; ++c) start_[c + 1] += start_[c];
+    items_.resize(pts.size());
+    // start_[c] doubles as the fill cursor of cell c, then is shifted back.
+    for (std::size_t i = 0; i < pts.size(); ++i)
+      items_[static_cast<std::size_t>(start_[cellOf(pts[i].uv_left)]++)] = static_cast<int>(i);
+    for (std::size_t c = cells; c > 0; --c) start_[c] = start_[c - 1];
+    start_[0] = 0;
   }
   template <typename F>
   void query(const Eigen::Vector2d& c, double r, F&& f) const {
@@ -24,8 +39,10 @@ class PixelGrid {
     const int y0 = std::clamp(static_cast<int>((c.y() - r) / cell_), 0, rows_ - 1);
     const int y1 = std::clamp(static_cast<int>((c.y() + r) / cell_), 0, rows_ - 1);
     for (int y = y0; y <= y1; ++y)
-      for (int x = x0; x <= x1; ++x)
-        for (int i : cells_[static_cast<std::size_t>(y * cols_ + x)]) f(i);
+      for (int x = x0; x <= x1; ++x) {
+        const auto cell = static_cast<std::size_t>(y * cols_ + x);
+        for (int k = start_[cell]; k < start_[cell + 1]; ++k) f(items_[static_cast<std::size_t>(k)]);
+      }
   }
 
  private:
@@ -35,7 +52,8 @@ class PixelGrid {
     return static_cast<std::size_t>(y * cols_ + x);
   }
   int cell_, cols_, rows_;
-  std::vector<std::vector<int>> cells_;
+  std::vector<int>& start_;
+  std::vector<int>& items_;
 };
 
 }  // namespace
@@ -54,18 +72,31 @@ std::vector<TemporalMatch> matchTemporal(const StereoFeatures& prev, const Stere
                                          const camera::RectifiedRig& rig, const Eigen::Isometry3d& T_prev_curr,
                                          const Eigen::Matrix<double, 6, 6>& covariance,
                                          const TemporalMatchParams& params) {
+  TemporalMatchWorkspace ws;
   std::vector<TemporalMatch> out;
-  if (prev.points.empty() || curr.points.empty()) return out;
+  matchTemporal(prev, curr, rig, T_prev_curr, covariance, params, ws, out);
+  return out;
+}
+
+void matchTemporal(const StereoFeatures& prev, const StereoFeatures& curr, const camera::RectifiedRig& rig,
+                   const Eigen::Isometry3d& T_prev_curr, const Eigen::Matrix<double, 6, 6>& covariance,
+                   const TemporalMatchParams& params, TemporalMatchWorkspace& ws, std::vector<TemporalMatch>& out) {
+  out.clear();
+  if (prev.points.empty() || curr.points.empty()) return;
   const float max_dist = descriptorThreshold(curr.descriptors, params.max_descriptor_distance);
   const Eigen::Isometry3d T_curr_prev = T_prev_curr.inverse();
-  const PixelGrid grid(curr.points, rig.width, rig.height, 24);
+  const PixelGrid grid(curr.points, rig.width, rig.height, 24, ws.cell_start, ws.cell_points);
   const double whole_image = std::hypot(rig.width, rig.height);
 
   // Best current candidate per previous point, and best previous per current (mutual check).
-  std::vector<TemporalMatch> best(prev.points.size());
-  std::vector<float> second(prev.points.size(), std::numeric_limits<float>::max());
-  std::vector<int> best_prev_of_curr(curr.points.size(), -1);
-  std::vector<float> best_prev_dist(curr.points.size(), std::numeric_limits<float>::max());
+  std::vector<TemporalMatch>& best = ws.best;
+  std::vector<float>& second = ws.second;
+  std::vector<int>& best_prev_of_curr = ws.best_prev_of_curr;
+  std::vector<float>& best_prev_dist = ws.best_prev_dist;
+  best.assign(prev.points.size(), TemporalMatch{});
+  second.assign(prev.points.size(), std::numeric_limits<float>::max());
+  best_prev_of_curr.assign(curr.points.size(), -1);
+  best_prev_dist.assign(curr.points.size(), std::numeric_limits<float>::max());
 
   for (std::size_t i = 0; i < prev.points.size(); ++i) {
     const StereoPoint& sp = prev.points[i];
@@ -116,7 +147,6 @@ std::vector<TemporalMatch> matchTemporal(const StereoFeatures& prev, const Stere
     if (best_prev_of_curr[static_cast<std::size_t>(m.curr)] != static_cast<int>(i)) continue;
     out.push_back(m);
   }
-  return out;
 }
 
 }  // namespace seavio::matching

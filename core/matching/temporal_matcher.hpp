@@ -38,12 +38,29 @@ struct StereoFeatures {
   std::vector<int> laplacian_sign;  ///< per point, from the keypoint's class_id (-1 = unknown)
 };
 
+/// Scratch of matchTemporal kept across frames by its owner, so a warm call allocates nothing
+/// (issue 8): the pixel grid is stored flat (counting sort of the points by cell) instead of
+/// one vector per cell, and every buffer is refilled, never freed.
+struct TemporalMatchWorkspace {
+  std::vector<int> cell_start;   ///< grid cell c holds cell_points[cell_start[c] .. cell_start[c + 1])
+  std::vector<int> cell_points;  ///< current points, by cell, ascending within a cell
+  std::vector<TemporalMatch> best;
+  std::vector<float> second;
+  std::vector<int> best_prev_of_curr;
+  std::vector<float> best_prev_dist;
+};
+
 /// Matches `prev` to `curr` given the predicted motion T_prev_curr (maps points of the
 /// current R0 into the previous R0) and its 6x6 covariance (rotation [rad], translation [m]).
 std::vector<TemporalMatch> matchTemporal(const StereoFeatures& prev, const StereoFeatures& curr,
                                          const camera::RectifiedRig& rig, const Eigen::Isometry3d& T_prev_curr,
                                          const Eigen::Matrix<double, 6, 6>& covariance,
                                          const TemporalMatchParams& params);
+/// The same into `out` (cleared first) with the scratch of `ws`: identical matches, no
+/// allocation once `ws` and `out` have grown to the frames' sizes.
+void matchTemporal(const StereoFeatures& prev, const StereoFeatures& curr, const camera::RectifiedRig& rig,
+                   const Eigen::Isometry3d& T_prev_curr, const Eigen::Matrix<double, 6, 6>& covariance,
+                   const TemporalMatchParams& params, TemporalMatchWorkspace& ws, std::vector<TemporalMatch>& out);
 
 /// Half-size of the search window [px] for a point at depth z_m given the motion covariance.
 double predictionWindowPx(const camera::RectifiedRig& rig, double z_m, const Eigen::Matrix<double, 6, 6>& covariance,

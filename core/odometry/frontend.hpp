@@ -1,7 +1,10 @@
 #pragma once
 /// The per-image half of the pipeline: rectify, detect and describe, match along rows,
 /// triangulate (paper Fig. 2, left column). Const and stateless so the daemon's worker pool
-/// can run the left and right detections in parallel.
+/// can run the left and right detections in parallel; the buffers a frame needs live in a
+/// FrontendWorkspace owned by the caller (one per pipeline), so that frames after the first
+/// reuse them instead of allocating (issue 8).
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -35,8 +38,17 @@ struct IlluminationParams {
   double target_grey = 110.0;
 };
 
-/// Flat-field corrects `in` into `out` (both CV_8UC1). `scratch` buffers are reused.
+/// Flat-field corrects `in` into `out` (both CV_8UC1).
 void normalizeIllumination(const cv::Mat& in, cv::Mat& out, const IlluminationParams& params);
+
+/// Buffers of normalizeIllumination kept across frames (the Gaussian's own kernel and filter
+/// are still built by cv::GaussianBlur on every call: OpenCV 4 exposes no reusable filter).
+struct IlluminationScratch {
+  cv::Mat small, small_f, low_f, in_f;
+};
+/// The same as above with the buffers of `scratch`: bit-identical output.
+void normalizeIllumination(const cv::Mat& in, cv::Mat& out, const IlluminationParams& params,
+                           IlluminationScratch& scratch);
 
 /// Marine-snow suppression. Snow particles lit by the vehicle's own lights show as bright
 /// dots of a few pixels, hundreds per image at 4 m altitude; SURF's strongest small-scale
@@ -52,6 +64,44 @@ struct SnowFilterParams {
 /// Opens `in` into `out` (CV_8UC1) with a `params.kernel_px` disc; a copy when disabled.
 void suppressSnow(const cv::Mat& in, cv::Mat& out, const SnowFilterParams& params);
 
+/// The snow filter's disc as horizontal runs (made once) and its buffers. The opening is done
+/// here rather than by cv::morphologyEx, which builds a filter engine per call: erosion and
+/// dilation are minima and maxima, so the result is bit-identical (replicated border = clamped
+/// coordinates, as OpenCV's BORDER_REPLICATE).
+class SnowFilter {
+ public:
+  explicit SnowFilter(const SnowFilterParams& params = {});
+  /// Opens `in` into `out` (CV_8UC1; may be the same Mat); a copy when disabled.
+  void apply(const cv::Mat& in, cv::Mat& out);
+  const SnowFilterParams& params() const { return params_; }
+
+ private:
+  struct Run {
+    int dy, lo, hi;  ///< kernel row offset, column offsets [lo, hi] from the anchor
+    int span;        ///< index into spans_
+  };
+  /// One grey-level erosion (min) or dilation (max) of `src` into `dst` (not aliased).
+  void morph(const cv::Mat& src, cv::Mat& dst, bool erode);
+  SnowFilterParams params_;
+  std::vector<Run> runs_;
+  std::vector<std::pair<int, int>> spans_;  ///< distinct [lo, hi]
+  std::vector<cv::Mat> horizontal_;         ///< per span: the row-wise min/max of the source
+  std::vector<uint8_t> pad_;                ///< one source row with its replicated border
+  cv::Mat eroded_;
+};
+
+/// Everything the frontend writes per frame, kept by the caller across frames: rectified
+/// images, filter buffers, the stereo matcher's scratch. One per pipeline (not thread-shared);
+/// a member of its owner, never a global.
+struct FrontendWorkspace {
+  cv::Mat left_rect, right_rect;
+  SnowFilter snow;  ///< set to the frontend's parameters on first use
+  IlluminationScratch illumination;
+  matching::StereoMatchWorkspace stereo;
+  /// SURF's buffers, one per image side: the daemon describes left and right at once.
+  features::SurfWorkspace surf_left, surf_right;
+};
+
 class Frontend {
  public:
   Frontend(camera::StereoRectifier rectifier, const features::FeatureParams& feature_params,
@@ -63,12 +113,23 @@ class Frontend {
 
   /// Rectified image of camera `cam` (0 left, 1 right).
   void rectify(const StereoFrame& frame, cv::Mat& left_rect, cv::Mat& right_rect) const;
+  /// The same into `ws.left_rect` and `ws.right_rect`, filters' buffers from `ws`.
+  void rectify(const StereoFrame& frame, FrontendWorkspace& ws) const;
   /// Features of one rectified image.
   features::Features detect(const cv::Mat& rectified, double threshold) const;
+  /// The same with SURF's buffers in `surf` (one per thread calling at once).
+  features::Features detect(const cv::Mat& rectified, double threshold, features::SurfWorkspace& surf) const;
   /// Stereo matching + triangulation of already detected features.
   matching::StereoFeatures matchStereo(const features::Features& left, const features::Features& right) const;
+  /// The same into `out`, reusing its buffers (points, descriptor rows) and `ws`'s scratch.
+  void matchStereo(const features::Features& left, const features::Features& right, FrontendWorkspace& ws,
+                   matching::StereoFeatures& out) const;
   /// All three, sequentially, timed with `now` (may be empty).
   FrameFeatures process(const StereoFrame& frame, double threshold, const NowNsFn& now) const;
+  /// The same into `out` with the buffers of `ws` and `out` (give back a FrameFeatures of an
+  /// earlier frame to reuse its allocations): identical results.
+  void process(const StereoFrame& frame, double threshold, const NowNsFn& now, FrontendWorkspace& ws,
+               FrameFeatures& out) const;
 
  private:
   camera::StereoRectifier rectifier_;

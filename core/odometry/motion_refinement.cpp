@@ -49,19 +49,27 @@ double huberWeight(double r, double k) {
   return a <= k ? 1.0 : k / a;
 }
 
-struct Obs {
-  Eigen::Vector3d X;  ///< point in the previous left camera, refined with the motion [m]
-  Vector8d uv;        ///< left/right previous, left/right current [px]
-};
+/// X: point in the previous left camera, refined with the motion [m]; uv: left/right
+/// previous, left/right current [px].
+using Obs = MotionRefinementWorkspace::Obs;
 
 }  // namespace
 
 MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<const geometry::QuadMatch> matches,
                                     std::span<const uint32_t> inliers, const Eigen::Isometry3d& T_prev_curr_init,
                                     const RotationPrior& prior, const MotionRefinementParams& params) {
+  MotionRefinementWorkspace ws;
+  return refineMotion(rig, matches, inliers, T_prev_curr_init, prior, params, ws);
+}
+
+MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<const geometry::QuadMatch> matches,
+                                    std::span<const uint32_t> inliers, const Eigen::Isometry3d& T_prev_curr_init,
+                                    const RotationPrior& prior, const MotionRefinementParams& params,
+                                    MotionRefinementWorkspace& ws) {
   MotionRefinementResult out;
   out.T_prev_curr = T_prev_curr_init;
-  std::vector<Obs> obs;
+  std::vector<Obs>& obs = ws.obs;
+  obs.clear();
   obs.reserve(inliers.size());
   for (uint32_t i : inliers) {
     if (i >= matches.size()) continue;
@@ -124,7 +132,10 @@ MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<c
     return c + rp.dot(prior_info * rp);
   };
 
-  std::vector<Eigen::Vector3d> points(obs.size()), trial_points(obs.size());
+  std::vector<Eigen::Vector3d>& points = ws.points;
+  std::vector<Eigen::Vector3d>& trial_points = ws.trial_points;
+  points.resize(obs.size());
+  trial_points.resize(obs.size());
   for (std::size_t j = 0; j < obs.size(); ++j) points[j] = obs[j].X;
   Eigen::Isometry3d T = T_prev_curr_init;
   double sq_sum = 0;
@@ -134,9 +145,12 @@ MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<c
   Matrix6d S;
   Vector6d g;
   // Per-point blocks of the current linearisation, kept for the back-substitution.
-  std::vector<Eigen::Matrix3d> Hll_inv(obs.size());
-  std::vector<Eigen::Matrix<double, 6, 3>> Hpl(obs.size());
-  std::vector<Eigen::Vector3d> gl(obs.size());
+  std::vector<Eigen::Matrix3d>& Hll_inv = ws.Hll_inv;
+  std::vector<Eigen::Matrix<double, 6, 3>>& Hpl = ws.Hpl;
+  std::vector<Eigen::Vector3d>& gl = ws.gl;
+  Hll_inv.resize(obs.size());
+  Hpl.resize(obs.size());
+  gl.resize(obs.size());
   // Left perturbation T = exp(d) T, d = (rotation, translation) in the previous camera:
   // p = T^-1 exp(-d) X gives dp/d(rot) = R^T [X]x, dp/d(trans) = -R^T, dp/dX = R^T.
   auto buildSystem = [&](double damping) {

@@ -5,6 +5,7 @@
 /// gyro, integrated over one frame interval, knows the rotation to a few thousandths of a
 /// degree; as a prior it pins the rotation and lets the matches determine the translation.
 #include <span>
+#include <vector>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -44,5 +45,23 @@ struct MotionRefinementResult {
 MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<const geometry::QuadMatch> matches,
                                     std::span<const uint32_t> inliers, const Eigen::Isometry3d& T_prev_curr_init,
                                     const RotationPrior& prior, const MotionRefinementParams& params);
+
+/// Buffers of refineMotion, kept by a caller across frames so a warm call allocates nothing
+/// (issue 8).
+struct MotionRefinementWorkspace {
+  struct Obs {
+    Eigen::Vector3d X;                ///< point in the previous left camera [m]
+    Eigen::Matrix<double, 8, 1> uv;   ///< left/right previous, left/right current [px]
+  };
+  std::vector<Obs> obs;
+  std::vector<Eigen::Vector3d> points, trial_points, gl;
+  std::vector<Eigen::Matrix3d> Hll_inv;
+  std::vector<Eigen::Matrix<double, 6, 3>> Hpl;
+};
+/// The same with the buffers of `ws`: identical results.
+MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<const geometry::QuadMatch> matches,
+                                    std::span<const uint32_t> inliers, const Eigen::Isometry3d& T_prev_curr_init,
+                                    const RotationPrior& prior, const MotionRefinementParams& params,
+                                    MotionRefinementWorkspace& ws);
 
 }  // namespace seavio::odometry

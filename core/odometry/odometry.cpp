@@ -116,8 +116,9 @@ void Odometry::applyGlobalCorrection(const GlobalCorrection& c) {
 }
 
 OdometryResult Odometry::process(const StereoFrame& frame, std::span<const ImuSample> imu) {
-  FrameFeatures f = frontend_.process(frame, controller_.threshold(), now_);
-  return track(std::move(f), imu);
+  // Into the buffers of an earlier frame, which track() hands back (issue 8: no allocation).
+  frontend_.process(frame, controller_.threshold(), now_, frontend_ws_, spare_frame_);
+  return track(std::move(spare_frame_), imu);
 }
 
 void Odometry::initialise(const FrameFeatures& frame, std::span<const ImuSample> imu) {
@@ -218,7 +219,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   }
   // This interval's samples (for the still-start bias), then drop what is no longer needed
   // (keeping one sample before the frame for interpolation).
-  std::vector<ImuSample> interval;
+  std::vector<ImuSample>& interval = work_.interval;
+  interval.clear();
   for (const ImuSample& s : imu_buffer_)
     if (s.t_ns > state_.t_ns && s.t_ns <= frame.t_ns) interval.push_back(s);
   while (imu_buffer_.size() > 2 && imu_buffer_[1].t_ns <= frame.t_ns) imu_buffer_.erase(imu_buffer_.begin());
@@ -243,12 +245,13 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     ref_gyro_cov = keyframe_->gyro_covariance;
     dt_ref_s = 1e-9 * static_cast<double>(frame.t_ns - keyframe_->t_ns);
   }
-  auto temporal = matching::matchTemporal(*ref_features, frame.stereo, rig, T_ref_curr_pred, pred_cov,
-                                                params_.temporal);
+  std::vector<matching::TemporalMatch>& temporal = work_.temporal;
+  matching::matchTemporal(*ref_features, frame.stereo, rig, T_ref_curr_pred, pred_cov, params_.temporal,
+                          work_.temporal_ws, temporal);
   r.times.temporal_ms = timer.lap_ms();
 
   // --- III-C: quadrifocal tensor of the two pairs, RANSAC + refinement.
-  std::vector<geometry::QuadMatch> quads;
+  std::vector<geometry::QuadMatch>& quads = work_.quads;
   const auto toQuads = [&] {
     quads.clear();
     quads.reserve(temporal.size());
@@ -259,7 +262,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     }
   };
   toQuads();
-  geometry::RansacResult ransac = ransac_.estimate(quads, T_ref_curr_pred, rng_);
+  geometry::RansacResult& ransac = work_.ransac;
+  ransac_.estimate(quads, T_ref_curr_pred, rng_, ransac);
   bool vision_ok = ransac.status == geometry::RansacStatus::kOk &&
                    static_cast<int>(ransac.inliers.size()) >= params_.min_inliers && finitePose(ransac.T_prev_curr);
   r.times.tensor_ms = timer.lap_ms();
@@ -272,10 +276,11 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     R_ref_curr_gyro = T_prev_curr_pred.rotation();
     ref_gyro_cov.setZero();
     dt_ref_s = dt_s;
-    temporal = matching::matchTemporal(*ref_features, frame.stereo, rig, T_ref_curr_pred, pred_cov, params_.temporal);
+    matching::matchTemporal(*ref_features, frame.stereo, rig, T_ref_curr_pred, pred_cov, params_.temporal,
+                            work_.temporal_ws, temporal);
     r.times.temporal_ms += timer.lap_ms();
     toQuads();
-    ransac = ransac_.estimate(quads, T_ref_curr_pred, rng_);
+    ransac_.estimate(quads, T_ref_curr_pred, rng_, ransac);
     vision_ok = ransac.status == geometry::RansacStatus::kOk &&
                 static_cast<int>(ransac.inliers.size()) >= params_.min_inliers && finitePose(ransac.T_prev_curr);
   }
@@ -296,7 +301,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
       // turn, a velocity gone stale): search the whole image once, so tracking comes back.
       matching::TemporalMatchParams whole = params_.temporal;
       whole.use_prediction = false;
-      temporal = matching::matchTemporal(*ref_features, frame.stereo, rig, T_ref_curr_pred, pred_cov, whole);
+      matching::matchTemporal(*ref_features, frame.stereo, rig, T_ref_curr_pred, pred_cov, whole, work_.temporal_ws,
+                              temporal);
       toQuads();
       vision_ok = rescue();
     }
@@ -317,7 +323,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     prior.covariance = ref_gyro_cov + pred_cov.topLeftCorner<3, 3>() - start_cov.topLeftCorner<3, 3>() +
                        Eigen::Matrix3d::Identity() * std::pow(gyro_bias_sigma_rad_s_ * dt_ref_s, 2);
     const MotionRefinementResult refined =
-        refineMotion(rig, quads, ransac.inliers, T_prev_curr, prior, params_.refinement);
+        refineMotion(rig, quads, ransac.inliers, T_prev_curr, prior, params_.refinement, work_.refinement);
     if (refined.ok) {
       T_prev_curr = refined.T_prev_curr;
       rel_cov = refined.covariance;
@@ -328,9 +334,13 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   // its rotation along with the shortened translation (motion_refinement.hpp); a bias learnt
   // from that tilt pitched the attitude 19 mrad off within 36 m on a tuning survey (seed 5).
   std::optional<Eigen::Matrix3d> R_ref_curr_vision;
-  if (vision_ok && have_imu && params_.gyro_bias_gain > 0) {
+  // Per keyframe (gyro_bias_per_keyframe): only the frame that ends the keyframe's span learns,
+  // below, once the keyframe decision is made.
+  const bool bias_per_keyframe = params_.gyro_bias_per_keyframe && kf_usable;
+  if (vision_ok && have_imu && params_.gyro_bias_gain > 0 && !bias_per_keyframe) {
     const MotionRefinementResult alone =
-        refineMotion(rig, quads, ransac.inliers, ransac.T_prev_curr, RotationPrior{}, params_.refinement);
+        refineMotion(rig, quads, ransac.inliers, ransac.T_prev_curr, RotationPrior{}, params_.refinement,
+                     work_.refinement);
     if (alone.ok) R_ref_curr_vision = alone.T_prev_curr.rotation();
   }
   Eigen::Isometry3d T_W_R0 = T_W_ref * T_prev_curr;
@@ -414,15 +424,31 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     state_covariance_.block<3, 3>(3, 3) = Eigen::Matrix3d::Identity() * std::pow(params_.velocity_sigma_m_s, 2);
     if (on_keyframe) pose_covariance_ = keyframe_->pose_covariance;
     accumulate(pose_covariance_, rel_cov, T_W_ref.rotation());
+    coasting_.stop();
     r.source = PoseSource::kVision;
   } else {
     // Vision failed: coast on the IMU, flagged, with the covariance it deserves.
     const Eigen::Vector3d bg = state_.gyro_bias_rad_s, ba = state_.accel_bias_m_s2;
+    const Eigen::Matrix3d prev_state_R = state_.T_W_B.rotation();
+    const int64_t prev_state_t_ns = state_.t_ns;
     state_ = pred.state;
     state_.gyro_bias_rad_s = bg;
     state_.accel_bias_m_s2 = ba;
     state_covariance_ = pred.covariance;
-    accumulate(pose_covariance_, relativeCovariance(pred.covariance), Eigen::Matrix3d::Identity());
+    if (have_imu) {
+      // One correlated error state from the last visual fix (core/imu/coasting_covariance.hpp):
+      // summing per-frame covariances would drop the velocity, tilt and bias correlations
+      // that make dead-reckoning error grow with the square of time.
+      if (!coasting_.active()) {
+        coast_start_pose_covariance_ = pose_covariance_;
+        coasting_.start({params_.attitude_sigma_rad, params_.velocity_sigma_m_s, gyro_bias_sigma_rad_s_,
+                         params_.accel_bias_sigma_m_s2});
+      }
+      coasting_.propagate(prev_state_R, bg, ba, interval, prev_state_t_ns, frame.t_ns, imu_noise_);
+      pose_covariance_ = coast_start_pose_covariance_ + coasting_.poseCovariance(state_.T_W_B.rotation());
+    } else {
+      accumulate(pose_covariance_, relativeCovariance(pred.covariance), Eigen::Matrix3d::Identity());
+    }
     T_W_B = state_.T_W_B;
     T_W_R0 = T_W_B * T_B_R0;
     r.source = PoseSource::kImuOnly;
@@ -474,14 +500,37 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
         on_keyframe && r.source == PoseSource::kVision && inliers >= params_.keyframe_min_inliers &&
         inliers >= params_.keyframe_min_inlier_ratio * keyframe_->first_inliers &&
         (keyframe_->T_W_R0.inverse() * T_W_R0).translation().norm() <= params_.keyframe_max_distance_m;
+    if (on_keyframe && r.source == PoseSource::kVision) ++keyframe_->frames_tracked;
     if (keep) {
       keyframe_->R_kf_prev_gyro = R_ref_curr_gyro;
       keyframe_->gyro_covariance = ref_gyro_cov + pred_cov.topLeftCorner<3, 3>() - start_cov.topLeftCorner<3, 3>();
     } else {
+      if (bias_per_keyframe && on_keyframe && r.source == PoseSource::kVision && have_imu && !still_start_ &&
+          params_.gyro_bias_gain > 0 && dt_ref_s > 1e-6) {
+        // The span's last frame: gyro against the prior-free four-view rotation over the whole
+        // keyframe interval (its visual noise divided by the longest dt). The gain of the
+        // frames served keeps the filter's bandwidth per second that of the per-frame update.
+        const MotionRefinementResult alone =
+            refineMotion(rig, quads, ransac.inliers, ransac.T_prev_curr, RotationPrior{}, params_.refinement,
+                         work_.refinement);
+        if (alone.ok) {
+          const int n = std::max(keyframe_->frames_tracked, 1);
+          const double gain = std::min(1.0, params_.gyro_bias_gain * n);
+          const Eigen::Vector3d residual =
+              se3::logSO3(R_ref_curr_gyro.transpose() * alone.T_prev_curr.rotation()) / dt_ref_s;
+          state_.gyro_bias_rad_s -= gain * (T_B_R0.rotation() * residual);
+          gyro_bias_sigma_rad_s_ =
+              std::max(params_.gyro_bias_sigma_at_rest_rad_s, gyro_bias_sigma_rad_s_ * std::pow(0.99, n));
+        }
+        r.times.tensor_ms += timer.lap_ms();
+      }
       newKeyframe(frame.stereo, T_W_R0, r.t_ns);
     }
   }
-  previous_ = PreviousFrame{std::move(frame), T_W_R0, r.t_ns};
+  // The outgoing previous frame's buffers go back to the caller's FrameFeatures (issue 8).
+  std::swap(previous_->features, frame);
+  previous_->T_W_R0 = T_W_R0;
+  previous_->t_ns = r.t_ns;
   r.times.total_ms = r.times.rectify_ms + r.times.features_ms + r.times.stereo_ms + timer.total_ms();
   return r;
 }

@@ -8,9 +8,14 @@
 // kd-tree build included; frame: frame 7 of a short-plain clip, global mode, features
 // sequential (Odometry::process); frame2: the same frame through daemon::OdometryProcessor
 // with the right image on its worker thread (`seavio run --threads 2`, both threads counted).
+// steady | steady2 [WARMUP [FRAMES]]: the frame (frame2) path over FRAMES consecutive frames
+// (default 5) after WARMUP frames (default 8), one callgrind dump per frame, so allocations
+// per frame can be read in steady state (scripts/callgrind.sh steady).
 // Outside valgrind it just runs the stage and prints a line.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <random>
 #include <string>
 #include <vector>
@@ -19,9 +24,11 @@
 #include <valgrind/callgrind.h>
 #define SEAVIO_CG_START() CALLGRIND_START_INSTRUMENTATION
 #define SEAVIO_CG_STOP() CALLGRIND_STOP_INSTRUMENTATION
+#define SEAVIO_CG_DUMP(name) CALLGRIND_DUMP_STATS_AT(name)
 #else
 #define SEAVIO_CG_START() ((void)0)
 #define SEAVIO_CG_STOP() ((void)0)
+#define SEAVIO_CG_DUMP(name) ((void)(name))
 #endif
 
 #include <opencv2/core.hpp>
@@ -126,17 +133,49 @@ int frame(std::size_t threads) {
   return 0;
 }
 
+// Frames WARMUP .. WARMUP + FRAMES - 1 of the clip, each instrumented and dumped on its own.
+int steady(std::size_t threads, int warmup, int frames) {
+  const int total = warmup + frames;
+  const bench::SurveyClip c = bench::renderClip(total);
+  std::string error;
+  auto rect = camera::StereoRectifier::create(c.calibration, &error);
+  if (!rect) {
+    std::fprintf(stderr, "hotpaths: calibration unusable: %s\n", error.c_str());
+    return 1;
+  }
+  odometry::OdometryParams p;
+  p.mode = odometry::Mode::kGlobal;
+  daemon::OdometryProcessor odo(odometry::Odometry(std::move(*rect), c.imu_noise, p), threads);
+  for (int k = 0; k < warmup; ++k) odo.process(c.frames[k], c.imu[k]);
+  for (int k = warmup; k < total; ++k) {
+    SEAVIO_CG_START();
+    const OdometryResult r = odo.process(c.frames[k], c.imu[k]);
+    SEAVIO_CG_STOP();
+    const std::string name = "frame " + std::to_string(k);
+    SEAVIO_CG_DUMP(name.c_str());
+    std::printf("frame %d: %d + %d features, %d stereo, %d RANSAC inliers\n", k, r.quality.features_left,
+                r.quality.features_right, r.quality.stereo_matches, r.quality.ransac_inliers);
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   cv::setNumThreads(1);
-  const std::string stage = argc == 2 ? argv[1] : "";
+  const std::string stage = argc >= 2 ? argv[1] : "";
+  if (stage == "steady" || stage == "steady2") {
+    const int warmup = argc >= 3 ? std::max(2, std::atoi(argv[2])) : 8;
+    const int frames = argc >= 4 ? std::max(1, std::atoi(argv[3])) : 5;
+    return steady(stage == "steady" ? 1 : 2, warmup, frames);
+  }
   if (stage == "surf_detect") return surf(false);
   if (stage == "surf_describe") return surf(true);
   if (stage == "ransac") return ransac();
   if (stage == "icp") return icpStage();
   if (stage == "frame") return frame(1);
   if (stage == "frame2") return frame(2);
-  std::fprintf(stderr, "usage: hotpaths surf_detect|surf_describe|ransac|icp|frame|frame2\n");
+  std::fprintf(stderr,
+               "usage: hotpaths surf_detect|surf_describe|ransac|icp|frame|frame2|steady|steady2 [WARMUP [FRAMES]]\n");
   return 2;
 }

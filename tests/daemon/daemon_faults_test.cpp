@@ -14,7 +14,6 @@
 #include <spawn.h>
 #include <sys/ioctl.h>
 #include <sys/socket.h>
-#include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -29,11 +28,13 @@
 #include <thread>
 
 #include "daemon/daemon.hpp"
+#include "daemon/fault_counting_source.hpp"
 #include "daemon/timestamp_monitor.hpp"
 #include "drivers/imu_can/can_imu_source.hpp"
 #include "drivers/lcm/lcm_bus.hpp"
 #include "drivers/lcm/lcm_convert.hpp"
 #include "seavio_lcm/pose_t.hpp"
+#include "tests/daemon/notify_listener.hpp"
 #include "tests/drivers/lcm/private_netns.hpp"
 
 extern char** environ;
@@ -229,40 +230,6 @@ TEST(DaemonFaults, LcmPublishFailuresAreCountedAndPublishingResumes) {
               static_cast<unsigned long long>(d.health().poses_published.load()));
 }
 
-/// The CAN IMU driver behind the FaultReporter interface, folding its counters exactly as
-/// daemon/source_factory.cpp does for `imu.driver: can` (that wrapper is private to the
-/// factory, which opens interfaces and logs by name, not an fd). Snapshots on the reading
-/// thread, so the status thread never touches the driver.
-class CanImuWithFaults : public drivers::ImuSource, public FaultReporter {
- public:
-  explicit CanImuWithFaults(drivers::CanImuConfig cfg) : src_(std::move(cfg)) {}
-  bool start() override { return src_.start(); }
-  drivers::ReadStatus read(ImuSample& out, std::chrono::milliseconds timeout) override {
-    const drivers::ReadStatus st = src_.read(out, timeout);
-    const drivers::CanImuFaults& f = src_.faults();
-    DriverFaults d;
-    d.imu_bus_errors = f.can_error_frames + f.bus_off + f.unknown_ids + f.short_frames + f.incomplete_samples +
-                       f.malformed_log_lines;
-    d.imu_partial_packets = f.partial_packets;
-    d.timestamp_jumps = f.timestamp_jumps;
-    std::lock_guard l(m_);
-    snap_ = d;
-    return st;
-  }
-  void stop() override { src_.stop(); }
-  std::string lastError() const override { return src_.lastError(); }
-  std::string name() const override { return src_.name(); }
-  DriverFaults faults() const override {
-    std::lock_guard l(m_);
-    return snap_;
-  }
-
- private:
-  drivers::CanImuSource src_;
-  mutable std::mutex m_;
-  DriverFaults snap_;
-};
-
 TEST(DaemonFaults, CanErrorFramesAndBusOffReachTheStatusAndTheDaemonOutlivesTheBus) {
   // GIVEN the CAN IMU driver reading a SOCK_SEQPACKET socketpair (one can_frame per record,
   // like an AF_CAN raw socket) as the daemon's IMU
@@ -275,8 +242,9 @@ TEST(DaemonFaults, CanErrorFramesAndBusOffReachTheStatusAndTheDaemonOutlivesTheB
   cc.profile = *profile;
   cc.fd = sv[0];
   cc.clock.init_samples = 1;
-  Daemon d(faultConfig(), std::make_unique<FaultCamera>(25ms), std::make_unique<CanImuWithFaults>(cc),
-           std::make_unique<RecordingProcessor>());
+  // (behind the same fault counting as `imu.driver: can` in daemon/source_factory.cpp)
+  Daemon d(faultConfig(), std::make_unique<FaultCamera>(25ms),
+           withFaultCounting(std::make_unique<drivers::CanImuSource>(cc)), std::make_unique<RecordingProcessor>());
   ASSERT_TRUE(d.start()) << d.error();
 
   // WHEN the bus carries 1.5 s of 200 Hz samples with two error frames and a bus-off at
@@ -473,60 +441,10 @@ TEST(DaemonFaults, WatchdogStarvesWhileTheEstimatorHangsAndIsFedAgainAfter) {
 
 // ---- The real seaviod process and a real sd_notify listener ----
 
-/// Unix datagram socket at a temporary path collecting sd_notify messages with their
-/// arrival time, on its own thread.
-class NotifyListener {
- public:
-  NotifyListener() {
-    path_ = (std::filesystem::temp_directory_path() / ("seavio_wd_" + std::to_string(getpid()))).string();
-    std::filesystem::remove(path_);
-    fd_ = socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-    sockaddr_un a{};
-    a.sun_family = AF_UNIX;
-    std::snprintf(a.sun_path, sizeof a.sun_path, "%s", path_.c_str());
-    ok_ = fd_ >= 0 && bind(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
-    timeval tv{0, 50000};
-    setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
-    thread_ = std::thread([this] {
-      char buf[4096];
-      while (!stop_) {
-        const ssize_t n = recv(fd_, buf, sizeof buf, 0);
-        if (n <= 0) continue;
-        std::lock_guard l(m_);
-        msgs_.push_back({monotonicNowNs(), std::string(buf, static_cast<std::size_t>(n))});
-      }
-    });
-  }
-  ~NotifyListener() {
-    stop_ = true;
-    thread_.join();
-    if (fd_ >= 0) close(fd_);
-    std::filesystem::remove(path_);
-  }
-  bool ok() const { return ok_; }
-  const std::string& path() const { return path_; }
-  /// Messages containing `what` that arrived in [from_ns, to_ns).
-  int count(const std::string& what, int64_t from_ns, int64_t to_ns) const {
-    std::lock_guard l(m_);
-    int n = 0;
-    for (const auto& [t, s] : msgs_) n += (t >= from_ns && t < to_ns && s.find(what) != std::string::npos) ? 1 : 0;
-    return n;
-  }
-
- private:
-  std::string path_;
-  int fd_ = -1;
-  bool ok_ = false;
-  std::atomic<bool> stop_{false};
-  std::thread thread_;
-  mutable std::mutex m_;
-  std::vector<std::pair<int64_t, std::string>> msgs_;
-};
-
 TEST(SeaviodWatchdog, FedWhileFramesFlowEvenWithoutImuAndStarvedOnlyWhenFramesStop) {
   // GIVEN seaviod under a notify listener with a 200 ms watchdog (WATCHDOG_USEC, fed every
   // 100 ms) and a 500 ms stall limit, fed frames and IMU over LCM
-  NotifyListener listener;
+  test::NotifyListener listener("wd");
   ASSERT_TRUE(listener.ok());
   const std::string url = "udpm://239.255.76.67:7667?ttl=0";
   const auto tmp = std::filesystem::temp_directory_path();

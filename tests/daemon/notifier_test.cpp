@@ -1,52 +1,24 @@
 // sd_notify through libsystemd to a listener on a temporary NOTIFY_SOCKET.
 #include <gtest/gtest.h>
 
-#include <sys/socket.h>
-#include <sys/un.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdlib>
-#include <filesystem>
 #include <string>
 
 #include "daemon/notifier.hpp"
+#include "tests/daemon/notify_listener.hpp"
 
 namespace seavio::daemon {
 namespace {
 
-class NotifySocket {
+/// The listener on a temporary NOTIFY_SOCKET, exported for libsystemd's sd_notify.
+class NotifySocket : public test::NotifyListener {
  public:
-  NotifySocket() {
-    path_ = (std::filesystem::temp_directory_path() / ("seavio_notify_" + std::to_string(getpid()))).string();
-    std::filesystem::remove(path_);
-    fd_ = socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-    sockaddr_un a{};
-    a.sun_family = AF_UNIX;
-    std::snprintf(a.sun_path, sizeof a.sun_path, "%s", path_.c_str());
-    ok_ = fd_ >= 0 && bind(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
-    timeval tv{1, 0};
-    setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
-    setenv("NOTIFY_SOCKET", path_.c_str(), 1);
-  }
-  ~NotifySocket() {
-    unsetenv("NOTIFY_SOCKET");
-    unsetenv("WATCHDOG_USEC");
-    unsetenv("WATCHDOG_PID");
-    if (fd_ >= 0) close(fd_);
-    std::filesystem::remove(path_);
-  }
-  bool ok() const { return ok_; }
+  NotifySocket() { exportNotifySocket(); }
   /// Next datagram, empty after 1 s.
-  std::string receive() {
-    char buf[4096];
-    const ssize_t n = recv(fd_, buf, sizeof buf, 0);
-    return n > 0 ? std::string(buf, static_cast<std::size_t>(n)) : std::string();
-  }
-
- private:
-  std::string path_;
-  int fd_ = -1;
-  bool ok_ = false;
+  std::string receive() { return next(std::chrono::seconds(1)); }
 };
 
 TEST(SystemdNotifier, MessagesReachTheNotifySocket) {

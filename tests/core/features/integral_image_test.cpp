@@ -33,6 +33,35 @@ TEST(IntegralImage, BoxSumsMatchBruteForce) {
   EXPECT_EQ(ii.at(53, 37), static_cast<uint32_t>(cv::sum(img)[0]));
 }
 
+TEST(IntegralImage, EveryEntryMatchesRunningSumsAtEveryWidth) {
+  // GIVEN random images of widths around the 16-pixel steps of the vectorised row sums, one a
+  // view into a larger image (row pitch > width)
+  std::mt19937 rng(11);
+  IntegralImage ii;
+  for (int w : {1, 2, 15, 16, 17, 31, 32, 33, 47, 64, 65}) {
+    cv::Mat img(7, w, CV_8UC1);
+    for (int y = 0; y < img.rows; ++y)
+      for (int x = 0; x < img.cols; ++x) img.at<uint8_t>(y, x) = static_cast<uint8_t>(rng() % 256);
+    if (w == 33) {  // the same values, seen through a view with a wider row pitch
+      cv::Mat big(9, 80, CV_8UC1, cv::Scalar(255));
+      img.copyTo(big(cv::Rect(5, 1, w, img.rows)));
+      img = big(cv::Rect(5, 1, w, img.rows));
+      ASSERT_FALSE(img.isContinuous());
+    }
+    // WHEN its table is built (reusing one object, so the buffer is reused too)
+    ii.compute(img);
+    // THEN every entry is the plain running sum
+    for (int y = 0; y <= img.rows; ++y) {
+      for (int x = 0; x <= w; ++x) {
+        uint32_t expected = 0;
+        for (int yy = 0; yy < y; ++yy)
+          for (int xx = 0; xx < x; ++xx) expected += img.at<uint8_t>(yy, xx);
+        ASSERT_EQ(ii.at(x, y), expected) << "width " << w << " at " << x << "," << y;
+      }
+    }
+  }
+}
+
 TEST(IntegralImage, BoxesOutsideTheImageAreClipped) {
   const cv::Mat img(10, 10, CV_8UC1, cv::Scalar(3));
   const IntegralImage ii(img);

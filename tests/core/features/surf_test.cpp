@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -227,6 +228,90 @@ TEST(Surf, BadOrTinyInputNeverCrashes) {
   bad.max_features = -1;
   EXPECT_EQ(validate(bad).size(), 2u);
   EXPECT_THROW(Surf{bad}, std::invalid_argument);
+}
+
+/// True if the two results are the same bit for bit (keypoints and descriptor rows).
+::testing::AssertionResult sameOutput(const std::vector<cv::KeyPoint>& ka, const cv::Mat& da,
+                                      const std::vector<cv::KeyPoint>& kb, const cv::Mat& db) {
+  if (ka.size() != kb.size()) return ::testing::AssertionFailure() << ka.size() << " vs " << kb.size() << " keypoints";
+  for (std::size_t i = 0; i < ka.size(); ++i) {
+    const cv::KeyPoint &a = ka[i], &b = kb[i];
+    if (a.pt != b.pt || a.size != b.size || a.angle != b.angle || a.response != b.response ||
+        a.octave != b.octave || a.class_id != b.class_id) {
+      return ::testing::AssertionFailure() << "keypoint " << i << " differs";
+    }
+  }
+  if (da.size() != db.size() || da.type() != db.type()) return ::testing::AssertionFailure() << "descriptor shape";
+  for (int r = 0; r < da.rows; ++r) {
+    if (std::memcmp(da.ptr(r), db.ptr(r), da.cols * da.elemSize()) != 0) {
+      return ::testing::AssertionFailure() << "descriptor " << r << " differs";
+    }
+  }
+  return ::testing::AssertionSuccess();
+}
+
+TEST(Surf, WorkspaceReuseAcrossSizesGivesIdenticalOutput) {
+  // GIVEN one workspace used for a large image, then a smaller one, then the large one again
+  const Surf surf{SurfParams{}};
+  const cv::Mat big = makeTexture(400, 300, 31), small = makeTexture(150, 170, 32);
+  SurfWorkspace ws;
+  std::vector<cv::KeyPoint> k1, k2, k3, fresh_k;
+  cv::Mat d1, d2, d3, fresh_d;
+  surf.detectAndCompute(big, 300, k1, d1, ws);
+  surf.detectAndCompute(small, 300, k2, d2, ws);
+  surf.detectAndCompute(big, 300, k3, d3, ws);
+  ASSERT_GT(k1.size(), 50u);
+  ASSERT_GT(k2.size(), 10u);
+  // THEN each result equals the one from a fresh workspace and from the per-thread one
+  EXPECT_TRUE(sameOutput(k1, d1, k3, d3));
+  SurfWorkspace fresh;
+  surf.detectAndCompute(small, 300, fresh_k, fresh_d, fresh);
+  EXPECT_TRUE(sameOutput(k2, d2, fresh_k, fresh_d));
+  surf.detectAndCompute(big, 300, fresh_k, fresh_d);
+  EXPECT_TRUE(sameOutput(k1, d1, fresh_k, fresh_d));
+  // AND detection alone gives the same keypoints
+  std::vector<cv::KeyPoint> kd;
+  surf.detect(big, 300, kd, ws);
+  EXPECT_TRUE(sameOutput(k1, cv::Mat(), kd, cv::Mat()));
+}
+
+TEST(Surf, ImagesBeyondTheFastSamplingRangeGiveTheSameFeatures) {
+  // GIVEN a texture in the bottom-right corner of a canvas whose integral image has more than
+  // 2^24 entries: the four-lane sampler forms table offsets in float, exact only below 2^24,
+  // so every cell of such an image must take the general path (all offsets here are above)
+  const cv::Mat tex = makeTexture(480, 360, 33);
+  const int x0 = 4100 - tex.cols, y0 = 4500 - tex.rows;
+  ASSERT_GT(static_cast<double>(y0) * 4101, 16777216.0);
+  cv::Mat canvas(4500, 4100, CV_8UC1, cv::Scalar(0));
+  tex.copyTo(canvas(cv::Rect(x0, y0, tex.cols, tex.rows)));
+  SurfParams p;
+  p.octaves = 1;  // keeps the response planes of the 18 Mpx canvas small
+  p.octave_layers = 1;
+  const Surf surf(p);
+  std::vector<cv::KeyPoint> ks, kb;
+  cv::Mat ds, db;
+  surf.detectAndCompute(tex, 300, ks, ds);
+  surf.detectAndCompute(canvas, 300, kb, db);
+  // THEN keypoints away from the texture's left and top edges (beyond them the canvas is
+  // black) are found at the same place with the same descriptor, up to float rounding of the
+  // larger coordinates
+  std::vector<float> dist;
+  for (std::size_t i = 0; i < ks.size(); ++i) {
+    if (ks[i].pt.x < 60 || ks[i].pt.y < 60) continue;
+    const cv::Point2f moved = ks[i].pt + cv::Point2f(static_cast<float>(x0), static_cast<float>(y0));
+    const auto it = std::find_if(kb.begin(), kb.end(), [&](const cv::KeyPoint& k) {
+      return cv::norm(k.pt - moved) < 1e-2 && k.size == ks[i].size;
+    });
+    ASSERT_NE(it, kb.end()) << "keypoint " << i << " at " << ks[i].pt;
+    const int j = static_cast<int>(it - kb.begin());
+    dist.push_back(static_cast<float>(cv::norm(ds.row(static_cast<int>(i)), db.row(j), cv::NORM_L2)));
+  }
+  ASSERT_GT(dist.size(), 100u);
+  std::sort(dist.begin(), dist.end());
+  std::printf("%zu keypoints: descriptor distance median %.2g, 95th percentile %.2g\n", dist.size(),
+              dist[dist.size() / 2], dist[dist.size() * 95 / 100]);
+  EXPECT_LT(dist[dist.size() / 2], 1e-4);
+  EXPECT_LT(dist[dist.size() * 95 / 100], 1e-3);
 }
 
 TEST(Surf, FilterSizesFollowBay) {

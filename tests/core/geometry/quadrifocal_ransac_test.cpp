@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -235,6 +237,36 @@ TEST(QuadrifocalRansac, PriorRadiusRejectsFarHypotheses) {
 TEST(QuadrifocalRansac, StatusNames) {
   EXPECT_STREQ(toString(RansacStatus::kOk), "ok");
   EXPECT_STREQ(toString(RansacStatus::kNoConsensus), "no_consensus");
+}
+
+// Issue 8: estimate() into a RansacResult kept across frames gives what a fresh result gives,
+// whatever the previous call left in it (a success with many inliers, a failure).
+TEST(QuadrifocalRansac, ReusedResultEqualsAFreshOne) {
+  const auto rig = makeRig();
+  const Eigen::Isometry3d T = makeMotion();
+  QuadrifocalRansac reused(rig, {}), fresh(rig, {});
+  RansacResult kept;
+  // GIVEN scenes of changing size and outlier rate, one too small to estimate
+  for (const auto& [n, outliers] : std::vector<std::pair<int, double>>{{120, 0.3}, {8, 0.0}, {60, 0.5}, {200, 0.1}}) {
+    std::mt19937 scene_rng(static_cast<uint32_t>(n));
+    const auto scene = makeScene(rig, T, n, outliers, 0.3, scene_rng);
+    // WHEN estimated into the kept result and into a fresh one, same random streams
+    std::mt19937 rng_a(7), rng_b(7);
+    reused.estimate(scene.matches, T, rng_a, kept);
+    const RansacResult r = fresh.estimate(scene.matches, T, rng_b);
+    // THEN every field is identical
+    EXPECT_EQ(kept.status, r.status) << n;
+    EXPECT_EQ(kept.inliers, r.inliers) << n;
+    EXPECT_EQ(kept.T_prev_curr.matrix(), r.T_prev_curr.matrix()) << n;
+    EXPECT_EQ(kept.covariance, r.covariance) << n;
+    EXPECT_EQ(kept.rms_px, r.rms_px) << n;
+    EXPECT_EQ(kept.iterations, r.iterations) << n;
+    if (n >= 60) {
+      EXPECT_EQ(r.status, RansacStatus::kOk) << n;
+    } else {
+      EXPECT_NE(r.status, RansacStatus::kOk) << n;
+    }
+  }
 }
 
 }  // namespace

@@ -179,5 +179,58 @@ TEST(TemporalMatcher, WindowGrowsWithUncertainty) {
   EXPECT_LE(wl, p.max_window_px);
 }
 
+// Issue 8: the workspace versions reuse their buffers across frames; a reused (dirty)
+// workspace and output must give exactly what fresh ones give, whatever sizes came before.
+TEST(MatchingWorkspace, ReusedWorkspaceGivesTheSameMatchesAsAFreshOne) {
+  const auto rig = makeRig();
+  StereoMatchWorkspace stereo_ws;
+  std::vector<StereoPoint> stereo_out;
+  TemporalMatchWorkspace temporal_ws;
+  std::vector<TemporalMatch> temporal_out;
+  Eigen::Matrix<double, 6, 6> cov = Eigen::Matrix<double, 6, 6>::Zero();
+  cov.diagonal() << 1e-5, 1e-5, 1e-5, 1e-4, 1e-4, 1e-4;
+  // GIVEN frames of decreasing then increasing size, each matched with the same workspaces
+  for (const int n : {300, 40, 260, 5, 300}) {
+    std::mt19937 rng(static_cast<uint32_t>(n));
+    const auto pts = floorPoints(n, rng);
+    std::vector<cv::KeyPoint> left, right;
+    for (const auto& p : pts) {
+      const auto l = rig.project(p, 0), r = rig.project(p, 1);
+      left.emplace_back(cv::Point2f(float(l.x()), float(l.y())), 10.f, -1.f, 0.f, 0, n % 2);
+      right.emplace_back(cv::Point2f(float(r.x()), float(r.y()) + 0.3f), 10.f, -1.f, 0.f, 0, n % 2);
+    }
+    const cv::Mat dl = randomDescriptors(n, rng);
+    const cv::Mat dr = perturb(dl, 0.02f, rng);
+    // WHEN matched with the reused workspace and with fresh ones
+    matchStereo(left, dl, right, dr, rig, StereoMatchParams{}, stereo_ws, stereo_out);
+    const auto fresh = matchStereo(left, dl, right, dr, rig, StereoMatchParams{});
+    // THEN the stereo points are identical, bit for bit
+    ASSERT_EQ(stereo_out.size(), fresh.size()) << n;
+    EXPECT_GT(fresh.size(), static_cast<std::size_t>(n) / 8) << n;  // the matcher really worked
+    for (std::size_t i = 0; i < fresh.size(); ++i) {
+      EXPECT_EQ(stereo_out[i].left_index, fresh[i].left_index);
+      EXPECT_EQ(stereo_out[i].right_index, fresh[i].right_index);
+      EXPECT_EQ(stereo_out[i].p_R0, fresh[i].p_R0);
+    }
+    // AND so are the temporal matches, pruned and unpruned
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation() = Eigen::Vector3d(0.0, 0.2, 0.01);
+    const TwoFrames f = makeFrames(T, rng);
+    for (const bool predict : {true, false}) {
+      TemporalMatchParams p;
+      p.use_prediction = predict;
+      matchTemporal(f.prev, f.curr, rig, T, cov, p, temporal_ws, temporal_out);
+      const auto fresh_t = matchTemporal(f.prev, f.curr, rig, T, cov, p);
+      ASSERT_EQ(temporal_out.size(), fresh_t.size());
+      EXPECT_GT(fresh_t.size(), 150u);
+      for (std::size_t i = 0; i < fresh_t.size(); ++i) {
+        EXPECT_EQ(temporal_out[i].prev, fresh_t[i].prev);
+        EXPECT_EQ(temporal_out[i].curr, fresh_t[i].curr);
+        EXPECT_EQ(temporal_out[i].distance, fresh_t[i].distance);
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace seavio::matching

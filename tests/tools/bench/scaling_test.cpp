@@ -101,6 +101,92 @@ TEST(BenchScaling, FrameRowsCarryTheDistanceAndSurviveTheCsv) {
   fs::remove_all(dir);
 }
 
+TEST(BenchScaling, SurveyFitGivesMsPerKmOfCpuWallAndMapStepAndCountsIcpFrames) {
+  // GIVEN 201 frames 10 m apart (2 km) whose CPU time grows 0.5 ms per km, wall time 3x it,
+  // a map step growing 0.25 ms per km, ICP against the map on every 4th frame
+  ScalingResult res;
+  for (int i = 0; i <= 200; ++i) {
+    FrameTimeRow r;
+    r.frame = i;
+    r.distance_m = 10.0 * i;
+    r.cpu_ms = 12.0 + 0.5 * r.distance_m * 1e-3;
+    r.wall_ms = 3.0 * r.cpu_ms;
+    r.icp_ms = 1.0 + 0.25 * r.distance_m * 1e-3;
+    r.total_ms = r.cpu_ms;
+    r.icp_ran = i % 4 == 0;
+    r.map_refined = i % 8 == 0;
+    res.frames.push_back(r);
+  }
+  res.frames[0].cpu_ms = 500;  // frame 0 only initialises: left out of every fit
+  // WHEN the survey is fitted
+  fitSurvey(res);
+  // THEN the slopes are per km, the counts leave frame 0 out
+  EXPECT_EQ(res.cpu_vs_km.n, 200);
+  EXPECT_NEAR(res.cpu_vs_km.slope, 0.5, 1e-9);
+  EXPECT_NEAR(res.cpu_vs_km.intercept, 12.0, 1e-9);
+  EXPECT_NEAR(res.wall_vs_km.slope, 1.5, 1e-9);
+  EXPECT_NEAR(res.map_step_vs_km.slope, 0.25, 1e-9);
+  EXPECT_NEAR(res.time_vs_frame.slope, 0.5 * 0.01, 1e-9);  // 10 m per frame
+  EXPECT_EQ(res.icp_frames, 50);
+  EXPECT_EQ(res.map_refined_frames, 25);
+  std::ostringstream os;
+  printScaling(os, res);
+  EXPECT_NE(os.str().find("+0.5000 ms per km"), std::string::npos) << os.str();
+  EXPECT_NE(os.str().find("ICP against the map on 50 frames, the map moved 25 frames"), std::string::npos) << os.str();
+}
+
+TEST(BenchScaling, CsvCarriesTheStageSplitClocksAndFlagsAndReadsTheOldLayout) {
+  const fs::path dir = fs::temp_directory_path() / "seavio_bench_scaling_csv2";
+  fs::create_directories(dir);
+  // GIVEN a row with every stage, both clocks and the flags
+  FrameTimeRow r;
+  r.frame = 3;
+  r.distance_m = 4.5;
+  r.total_ms = 12.5;
+  r.rectify_ms = 1.25;
+  r.features_ms = 7.5;
+  r.stereo_ms = 0.25;
+  r.temporal_ms = 0.75;
+  r.tensor_ms = 1.5;
+  r.icp_ms = 1.0;
+  r.cpu_ms = 12.75;
+  r.wall_ms = 40.5;
+  r.icp_ran = true;
+  r.map_refined = false;
+  r.features = 480;
+  r.model_points = 2600;
+  const std::string csv = (dir / "f.csv").string();
+  writeFrameTimesCsv(csv, {r});
+  // THEN the header names every column and the row reads back as written
+  {
+    std::ifstream in(csv);
+    std::string header;
+    std::getline(in, header);
+    EXPECT_EQ(header,
+              "frame,distance_m,total_ms,features_ms,icp_ms,features,model_points,rectify_ms,stereo_ms,temporal_ms,"
+              "tensor_ms,cpu_ms,wall_ms,icp_ran,map_refined");
+  }
+  const auto back = readFrameTimesCsv(csv);
+  ASSERT_EQ(back.size(), 1u);
+  EXPECT_DOUBLE_EQ(back[0].rectify_ms, 1.25);
+  EXPECT_DOUBLE_EQ(back[0].temporal_ms, 0.75);
+  EXPECT_DOUBLE_EQ(back[0].tensor_ms, 1.5);
+  EXPECT_DOUBLE_EQ(back[0].cpu_ms, 12.75);
+  EXPECT_DOUBLE_EQ(back[0].wall_ms, 40.5);
+  EXPECT_TRUE(back[0].icp_ran);
+  EXPECT_FALSE(back[0].map_refined);
+  // AND a CSV of the 7-column layout still reads: no clocks measured, ICP where a model was
+  const std::string old = (dir / "old.csv").string();
+  std::ofstream(old) << "frame,distance_m,total_ms,features_ms,icp_ms,features,model_points\n0,0,5,3,0,400,0\n1,1.5,11,6,"
+                        "2,410,2600\n";
+  const auto v1 = readFrameTimesCsv(old);
+  ASSERT_EQ(v1.size(), 2u);
+  EXPECT_LT(v1[1].cpu_ms, 0.0);
+  EXPECT_TRUE(v1[1].icp_ran);
+  EXPECT_FALSE(v1[0].icp_ran);
+  fs::remove_all(dir);
+}
+
 TEST(BenchScaling, BadOptionsNameTheKey) {
   ScalingBenchOptions o;
   EXPECT_NE(errorOf([&] { runScalingBench(o); }).find("--dataset"), std::string::npos);
@@ -161,6 +247,12 @@ TEST(BenchScaling, TinySweepAndPaperBenchOnRenderedData) {
   printScaling(os, r);
   EXPECT_NE(os.str().find("ms per 1000 frames"), std::string::npos);
   EXPECT_NE(os.str().find("ms per 100 features"), std::string::npos);
+  // The sweep measured both clocks per frame (one thread: CPU at most the wall time, give
+  // or take the clocks' granularity).
+  for (const auto& row : r.sweep) {
+    EXPECT_GT(row.cpu_ms.median, 0.0);
+    EXPECT_GE(row.wall_ms.median, 0.9 * row.cpu_ms.median);
+  }
   fs::remove_all(dir);
 }
 

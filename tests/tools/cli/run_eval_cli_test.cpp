@@ -55,6 +55,14 @@ TEST_F(Cli, SimulateRunEvalEndToEnd) {
   const std::string s = slurp(stats);
   EXPECT_NE(s.find("\"tensor_ms\""), std::string::npos);
   EXPECT_NE(s.find("\"features_left\""), std::string::npos);
+  // The stage table sets the paper's Table II column of the variant that ran beside ours.
+  const std::string local_log = slurp(logPath());
+  EXPECT_NE(local_log.find("paper Table II, local"), std::string::npos) << local_log;
+  ASSERT_EQ(sh(kSeavio + " run --mode global --dataset " + data.string() + " --out " + (dir_ / "g.txt").string()), 0)
+      << slurp(logPath());
+  const std::string global_log = slurp(logPath());
+  EXPECT_NE(global_log.find("paper Table II, global"), std::string::npos) << global_log;
+  EXPECT_NE(global_log.find("3165"), std::string::npos) << "the paper's global ICP time belongs in the ICP row";
   // Whatever eval's verdict on coverage (0 ok, 4 incomplete), it must write the figures and the plot.
   const int rc = sh(kSeavio + " eval --gt " + data.string() + " --est " + traj.string() + " --json " + json.string() +
                     " --plot " + png.string());

@@ -23,6 +23,9 @@ struct CoastFigures {
   double sigma_end_m = 0;     ///< ... and at the last frame inside the stretch
   std::vector<double> error_at_s;  ///< seconds into the stretch the errors below are taken at
   std::vector<double> error_m;     ///< position error accumulated since the stretch began [m]
+  /// The position standard deviation the odometry added since the stretch began, at the same
+  /// times: sqrt(trace now - trace at the last frame before) [m]; its bound for error_m.
+  std::vector<double> sigma_added_m;
   double error_end_m = 0;     ///< at the last frame inside the stretch
   double recovery_s = -1;     ///< stretch end to the first visual pose after it (-1: none)
   double error_after_m = 0;   ///< accumulated error `after_s` after the stretch ended
@@ -89,6 +92,7 @@ inline CoastFigures coastFigures(const drivers::Dataset& ds, const std::vector<O
       while (next_at < at_s.size() && static_cast<double>(r.t_ns - from_ns) * 1e-9 >= at_s[next_at]) {
         f.error_at_s.push_back(at_s[next_at++]);
         f.error_m.push_back(error(r));
+        f.sigma_added_m.push_back(std::sqrt(std::max(0.0, var - f.sigma_start_m * f.sigma_start_m)));
       }
       continue;
     }

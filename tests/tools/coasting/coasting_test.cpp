@@ -6,6 +6,7 @@
 // over any rendered dataset (e.g. `seavio simulate short-outage`) is CoastingReport below.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -53,7 +54,8 @@ void printFigures(const std::string& what, const Stretch& s, const test::CoastFi
   std::printf("%-28s %-11s %5.1f s: flagged %d/%d, sigma %.3f -> %.3f m, error", what.c_str(), s.kind.c_str(),
               static_cast<double>(s.to_ns - s.from_ns) * 1e-9, f.flagged_in_loss, f.frames_in_loss,
               f.sigma_start_m, f.sigma_end_m);
-  for (std::size_t i = 0; i < f.error_m.size(); ++i) std::printf(" @%.1fs %.3f", f.error_at_s[i], f.error_m[i]);
+  for (std::size_t i = 0; i < f.error_m.size(); ++i)
+    std::printf(" @%.1fs %.3f (3sigma %.3f)", f.error_at_s[i], f.error_m[i], 3 * f.sigma_added_m[i]);
   std::printf(" end %.3f m (%.2f m travelled); vision back after %.2f s, error 2 s later %.3f m\n", f.error_end_m,
               f.distance_m, f.recovery_s, f.error_after_m);
 }
@@ -117,6 +119,57 @@ TEST(Coasting, BlackoutAndTurbidityAreFlaggedWithGrowingCovarianceAndVisionRecov
   }
   EXPECT_EQ(imu_only_outside, 0);
   fs::remove_all(dir);
+}
+
+// Consistency of the coasting covariance (issue 9): GIVEN short surveys on seeds the
+// covariance was not tuned on (tuning: seed 5), each with a 5 s blackout and a 5 s turbidity
+// stretch, WHEN the odometry coasts through them, THEN the position error the stretch adds lies
+// inside three standard deviations of the covariance it added, at 0.5, 1, 2 and 5 s, in most
+// cases, AND the bound is not uselessly loose. (A consistent covariance gives a median 3 sigma /
+// error of about 3.4 with sigma = sqrt(trace); measured here 5.9, i.e. sigma about 1.7x too large
+// on these short straight surveys: the hand-over uncertainties are fixed, not estimated, see
+// docs/reliability.md. The guard below is against a bound that says nothing, 10x.)
+TEST(CoastingConsistency, ErrorInsideThreeSigmaAtHalfOneTwoAndFiveSecondsAndTheBoundIsUseful) {
+  const std::vector<double> at = {0.5, 1.0, 2.0, 5.0};
+  int inside = 0, checked = 0;
+  std::vector<double> looseness;  // 3 sigma / error
+  for (const uint32_t seed : {41u, 59u}) {
+    simulate::SimConfig c = simulate::presetConfig("short-outage");
+    c.seed = seed;
+    c.frames = 190;
+    c.frame_rate_hz = 10.0;
+    c.rig.width = 320;  // a quarter of the pixels: the covariance does not depend on them
+    c.rig.height = 240;
+    c.trajectory.still_s = 0.5;
+    c.trajectory.accel_s = 1.0;
+    c.trajectory.speed_m_s = 1.0;
+    c.vision_loss.stretches = {{simulate::VisionLoss::kBlackout, 4.0, 5.2},
+                               {simulate::VisionLoss::kTurbidity, 12.5, 5.2}};
+    const fs::path dir =
+        fs::temp_directory_path() / ("seavio_coasting_nees_" + std::to_string(getpid()) + "_" + std::to_string(seed));
+    simulate::writeSequence(c, dir.string(), true);
+    const drivers::Dataset ds = drivers::loadEuroc(dir.string());
+    const tools::SequenceRun run = tools::runSequence(ds, odometry::OdometryParams{});
+    ASSERT_EQ(run.results.size(), ds.frames.size());
+    for (const Stretch& s : readStretches(dir.string())) {
+      const test::CoastFigures f = test::coastFigures(ds, run.results, s.from_ns, s.to_ns, at, 2.0);
+      printFigures("consistency (seed " + std::to_string(seed) + ")", s, f);
+      ASSERT_EQ(f.error_m.size(), at.size()) << s.kind;
+      for (std::size_t i = 0; i < at.size(); ++i) {
+        ++checked;
+        inside += f.error_m[i] <= 3 * f.sigma_added_m[i];
+        looseness.push_back(3 * f.sigma_added_m[i] / std::max(f.error_m[i], 1e-3));
+      }
+    }
+    fs::remove_all(dir);
+  }
+  std::sort(looseness.begin(), looseness.end());
+  const double median_looseness = looseness[looseness.size() / 2];
+  std::printf("coasting consistency: %d of %d errors inside 3 sigma; 3 sigma / error median %.2f (min %.2f max %.2f)\n",
+              inside, checked, median_looseness, looseness.front(), looseness.back());
+  ASSERT_EQ(checked, 16);
+  EXPECT_GE(inside, 13);  // "most": at least 80%
+  EXPECT_LE(median_looseness, 10.0);
 }
 
 // The measurement behind docs/reliability.md over full rendered surveys: set

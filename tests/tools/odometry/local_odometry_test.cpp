@@ -114,10 +114,10 @@ TEST(LocalOdometry, TracksAnUntunedPlainSurveyFarBetterThanDeadReckoning) {
   // THEN every frame is visual, the drift is small and an order below dead reckoning's
   EXPECT_EQ(r.imu_only_frames, 0);
   EXPECT_GT(r.metrics.distance_m, 4.0);
-  // Measured with keyframe tracking: 0.20 % mean, 0.47 % final over these 5.9 m (the 0.5 s
-  // still start leaves the gyro bias coarse); limits about twice that.
-  EXPECT_LT(r.metrics.mean_error_pct, 0.4) << "mean error " << r.metrics.mean_error_m << " m";
-  EXPECT_LT(r.metrics.final_error_pct, 0.8) << "final error " << r.metrics.final_error_m << " m";
+  // Measured with keyframe tracking: 0.195 % mean, 0.46 % final over these 5.9 m (the 0.5 s
+  // still start leaves the gyro bias coarse); limits about 1.5 times that.
+  EXPECT_LT(r.metrics.mean_error_pct, 0.3) << "mean error " << r.metrics.mean_error_m << " m";
+  EXPECT_LT(r.metrics.final_error_pct, 0.7) << "final error " << r.metrics.final_error_m << " m";
   EXPECT_LT(r.metrics.final_error_m * 5, imu.final_error_m);
 }
 
@@ -129,7 +129,7 @@ TEST(LocalOdometry, MarineSnowCostsLittle) {
   RecordProperty("final_error_um_snow", static_cast<int>(1e6 * snow.metrics.final_error_m));
   RecordProperty("distance_mm", static_cast<int>(1e3 * snow.metrics.distance_m));
   EXPECT_EQ(snow.imu_only_frames, 0);
-  EXPECT_LT(snow.metrics.mean_error_pct, 0.3);  // measured 0.10 %
+  EXPECT_LT(snow.metrics.mean_error_pct, 0.17);  // measured 0.10 % (plain 0.09 %)
   // Within 20 % of plain, or within 2 cm where both are tiny.
   EXPECT_LT(snow.metrics.mean_error_m, std::max(1.2 * plain.metrics.mean_error_m, plain.metrics.mean_error_m + 0.02));
 }

@@ -1,0 +1,109 @@
+#include "core/imu/coasting_covariance.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/common/se3.hpp"
+
+namespace seavio::imu {
+namespace {
+
+/// Gyro and accelerometer reading at `t_ns`, linear between samples, held beyond the ends.
+std::pair<Eigen::Vector3d, Eigen::Vector3d> readingAt(std::span<const ImuSample> s, int64_t t_ns) {
+  if (t_ns <= s.front().t_ns) return {s.front().gyro_rad_s, s.front().accel_m_s2};
+  if (t_ns >= s.back().t_ns) return {s.back().gyro_rad_s, s.back().accel_m_s2};
+  const auto it = std::lower_bound(s.begin(), s.end(), t_ns,
+                                   [](const ImuSample& a, int64_t t) { return a.t_ns < t; });
+  const ImuSample& b = *it;
+  const ImuSample& a = *(it - 1);
+  const double span = static_cast<double>(b.t_ns - a.t_ns);
+  const double w = span > 0 ? static_cast<double>(t_ns - a.t_ns) / span : 0.0;
+  return {(1 - w) * a.gyro_rad_s + w * b.gyro_rad_s, (1 - w) * a.accel_m_s2 + w * b.accel_m_s2};
+}
+
+}  // namespace
+
+void CoastingCovariance::start(const CoastingStart& s) {
+  P_.setZero();
+  P_.block<3, 3>(0, 0).diagonal().setConstant(s.attitude_sigma_rad * s.attitude_sigma_rad);
+  P_.block<3, 3>(3, 3).diagonal().setConstant(s.velocity_sigma_m_s * s.velocity_sigma_m_s);
+  P_.block<3, 3>(9, 9).diagonal().setConstant(s.gyro_bias_sigma_rad_s * s.gyro_bias_sigma_rad_s);
+  P_.block<3, 3>(12, 12).diagonal().setConstant(s.accel_bias_sigma_m_s2 * s.accel_bias_sigma_m_s2);
+  active_ = true;
+}
+
+void CoastingCovariance::propagate(const Eigen::Matrix3d& R_W_B, const Eigen::Vector3d& gyro_bias,
+                                   const Eigen::Vector3d& accel_bias, std::span<const ImuSample> samples,
+                                   int64_t t0_ns, int64_t t1_ns, const ImuNoise& noise) {
+  if (t1_ns <= t0_ns) return;
+  const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d R = R_W_B;
+  // Without samples the specific force is taken as the reaction to gravity (level, unaccelerated):
+  // the tilt error still couples into velocity through it.
+  auto reading = [&](int64_t t) -> std::pair<Eigen::Vector3d, Eigen::Vector3d> {
+    if (samples.empty()) return {gyro_bias, accel_bias + R_W_B.transpose() * Eigen::Vector3d(0, 0, kGravity_m_s2)};
+    return readingAt(samples, t);
+  };
+  int64_t t_prev = t0_ns;
+  auto prev = reading(t0_ns);
+  auto step = [&](int64_t t) {
+    const auto next = reading(t);
+    const double dt = 1e-9 * static_cast<double>(t - t_prev);
+    const Eigen::Vector3d w = 0.5 * (prev.first + next.first) - gyro_bias;
+    const Eigen::Vector3d a = 0.5 * (prev.second + next.second) - accel_bias;
+    const Eigen::Vector3d dtheta = w * dt;
+    const Eigen::Matrix3d dR = se3::expSO3(dtheta);
+    const Eigen::Matrix3d R_mid = R * se3::expSO3(0.5 * dtheta);
+    const Eigen::Matrix3d Jr = se3::rightJacobianSO3(dtheta);
+    const Eigen::Matrix3d Ra = R_mid * se3::skew(a);
+    // First-order error-state transition (body attitude error; a gyro bias error rotates the
+    // attitude, an accelerometer bias error adds an acceleration in W; the tilt error couples
+    // through the specific force, i.e. mostly gravity's reaction).
+    Matrix15d F = Matrix15d::Identity();
+    F.block<3, 3>(0, 0) = dR.transpose();
+    F.block<3, 3>(0, 9) = -Jr * dt;
+    F.block<3, 3>(3, 0) = -Ra * dt;
+    F.block<3, 3>(3, 12) = -R_mid * dt;
+    F.block<3, 3>(6, 0) = -0.5 * Ra * dt * dt;
+    F.block<3, 3>(6, 3) = I * dt;
+    F.block<3, 3>(6, 12) = -0.5 * R_mid * dt * dt;
+    // White measurement noise over dt (variance density^2 / dt of the mean) and the biases'
+    // random walks (variance rw^2 * dt).
+    const double sg2 = noise.gyroscope_noise_density * noise.gyroscope_noise_density / dt;
+    const double sa2 = noise.accelerometer_noise_density * noise.accelerometer_noise_density / dt;
+    Eigen::Matrix<double, 15, 12> G = Eigen::Matrix<double, 15, 12>::Zero();
+    G.block<3, 3>(0, 0) = Jr * dt;
+    G.block<3, 3>(3, 3) = R_mid * dt;
+    G.block<3, 3>(6, 3) = 0.5 * R_mid * dt * dt;
+    G.block<3, 3>(9, 6) = I;
+    G.block<3, 3>(12, 9) = I;
+    Eigen::Matrix<double, 12, 1> q;
+    q << sg2, sg2, sg2, sa2, sa2, sa2, Eigen::Vector3d::Constant(std::pow(noise.gyroscope_random_walk, 2) * dt),
+        Eigen::Vector3d::Constant(std::pow(noise.accelerometer_random_walk, 2) * dt);
+    P_ = F * P_ * F.transpose() + G * q.asDiagonal() * G.transpose();
+    R = R * dR;
+    prev = next;
+    t_prev = t;
+  };
+  for (const ImuSample& s : samples)
+    if (s.t_ns > t0_ns && s.t_ns < t1_ns) step(s.t_ns);
+  if (samples.empty()) {
+    // Steps of at most 10 ms, so the quadratic terms stay first-order accurate.
+    const int64_t n = std::max<int64_t>(1, (t1_ns - t0_ns + 9'999'999) / 10'000'000);
+    for (int64_t k = 1; k < n; ++k) step(t0_ns + (t1_ns - t0_ns) * k / n);
+  }
+  step(t1_ns);
+  P_ = 0.5 * (P_ + P_.transpose());
+}
+
+Eigen::Matrix<double, 6, 6> CoastingCovariance::poseCovariance(const Eigen::Matrix3d& R_W_B) const {
+  Eigen::Matrix<double, 6, 6> C = Eigen::Matrix<double, 6, 6>::Zero();
+  C.topLeftCorner<3, 3>() = R_W_B * P_.topLeftCorner<3, 3>() * R_W_B.transpose();
+  C.bottomRightCorner<3, 3>() = P_.block<3, 3>(6, 6);
+  const Eigen::Matrix3d cross = R_W_B * P_.block<3, 3>(0, 6);
+  C.topRightCorner<3, 3>() = cross;
+  C.bottomLeftCorner<3, 3>() = cross.transpose();
+  return C;
+}
+
+}  // namespace seavio::imu

@@ -1,0 +1,61 @@
+#pragma once
+/// Error covariance of IMU dead reckoning through a vision outage (issue 9; paper section III-A
+/// for the propagation itself).
+///
+/// Per-frame propagation from a fresh visual fix (imu::propagate) is right for the matching
+/// windows, but summing its per-interval position covariances over many coasting frames treats
+/// every interval as independent: a velocity error integrates into position linearly in time
+/// and an accelerometer-bias or tilt error quadratically, and neither shows up if the
+/// correlations are dropped at every frame. This keeps one 15-state error covariance from the
+/// last visual fix to the current coasting frame instead, with the error sources that dominate
+/// there: the velocity and attitude uncertainty handed over by vision, the gyro and
+/// accelerometer bias uncertainty (the accelerometer bias is not estimated, so its whole
+/// spread counts) and their random walks.
+#include <span>
+
+#include <Eigen/Core>
+
+#include "core/common/types.hpp"
+#include "core/imu/imu_noise.hpp"
+
+namespace seavio::imu {
+
+/// Error-state order: dtheta [rad] in body, dv [m/s] in W, dp [m] in W, gyro bias [rad/s],
+/// accelerometer bias [m/s^2].
+using Matrix15d = Eigen::Matrix<double, 15, 15>;
+
+/// One-sigma uncertainties at the start of a vision outage (per axis).
+struct CoastingStart {
+  double attitude_sigma_rad = 0.005;
+  double velocity_sigma_m_s = 0.05;
+  double gyro_bias_sigma_rad_s = 3e-4;
+  double accel_bias_sigma_m_s2 = 0.03;
+};
+
+class CoastingCovariance {
+ public:
+  /// Starts an outage at the last visual fix: position error zero (the fix's own covariance
+  /// is the caller's), the rest from `s`.
+  void start(const CoastingStart& s);
+  /// Ends the outage (vision is back).
+  void stop() { active_ = false; }
+  bool active() const { return active_; }
+
+  /// Grows the covariance over [t0_ns, t1_ns] along the nominal path that starts at attitude
+  /// `R_W_B` with the given bias estimates, using `samples` (sorted; interpolated at the
+  /// knots, held beyond the ends, as imu::propagate does).
+  void propagate(const Eigen::Matrix3d& R_W_B, const Eigen::Vector3d& gyro_bias, const Eigen::Vector3d& accel_bias,
+                 std::span<const ImuSample> samples, int64_t t0_ns, int64_t t1_ns, const ImuNoise& noise);
+
+  /// Pose covariance added since the outage began, tangent order (rotation, translation) in W,
+  /// for a body attitude `R_W_B` now.
+  Eigen::Matrix<double, 6, 6> poseCovariance(const Eigen::Matrix3d& R_W_B) const;
+
+  const Matrix15d& covariance() const { return P_; }
+
+ private:
+  Matrix15d P_ = Matrix15d::Zero();
+  bool active_ = false;
+};
+
+}  // namespace seavio::imu

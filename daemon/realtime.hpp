@@ -1,0 +1,47 @@
+#pragma once
+/// Scheduling of seaviod's threads (issue 8: end-to-end latency tail).
+///
+/// Two roles. The frame path (camera, IMU, estimator, its feature worker, pose publisher)
+/// must never wait for a core behind anything else; the background (the global map ICP
+/// thread, the status thread) may always wait. Two ways to get the frame path real-time:
+///  - systemd sets SCHED_FIFO for the whole service before dropping privileges
+///    (`CPUSchedulingPolicy=fifo` in systemd/seaviod.service, no capability needed), or
+///    `chrt -f N seaviod ...` by hand; every thread inherits it;
+///  - `daemon.realtime.priority: N` makes each frame-path thread SCHED_FIFO N itself, which
+///    needs CAP_SYS_NICE or RLIMIT_RTPRIO >= N; refused otherwise, and said so.
+/// Either way the background threads demote themselves to SCHED_BATCH at nice
+/// `background_nice` (a thread may always lower its own priority), so the global ICP
+/// never takes a core from a frame, whatever the process inherited.
+#include <string>
+
+namespace seavio::daemon {
+
+struct RealtimeConfig {
+  /// SCHED_FIFO priority of the frame-path threads, 1..98; 0 = keep the inherited policy.
+  int priority = 0;
+  /// Nice value of the background threads (SCHED_BATCH), 0..19.
+  int background_nice = 10;
+  /// mlockall(MCL_CURRENT | MCL_FUTURE) at start: no page fault on the frame path after
+  /// warm-up (needs RLIMIT_MEMLOCK, `LimitMEMLOCK=` in the unit, or CAP_IPC_LOCK).
+  bool lock_memory = false;
+};
+
+enum class ThreadRole { kFramePath, kBackground };
+
+/// What applying a role or locking memory did; `message` says it either way.
+struct SchedulingOutcome {
+  bool ok = false;
+  std::string message;
+};
+
+/// Applies `role` to the calling thread: frame path = SCHED_FIFO `priority` if > 0 (else
+/// nothing), background = SCHED_BATCH at `background_nice`. `thread` names it in messages.
+SchedulingOutcome applyThreadRole(ThreadRole role, const RealtimeConfig& config, const std::string& thread);
+
+/// mlockall(MCL_CURRENT | MCL_FUTURE); the message names the limit when refused.
+SchedulingOutcome lockAllMemory();
+
+/// The calling thread's policy, priority and nice, e.g. "SCHED_FIFO 10" or "SCHED_BATCH nice 10".
+std::string describeThreadScheduling();
+
+}  // namespace seavio::daemon

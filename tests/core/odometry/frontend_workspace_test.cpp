@@ -1,0 +1,204 @@
+// Issue 8: the per-frame path reuses buffers kept in workspaces instead of allocating. These
+// tests hold the reuse to "bit-identical to fresh buffers and to the OpenCV calls it replaces",
+// over frames of changing content and size.
+#include <cstring>
+#include <string>
+#include <tuple>
+#include <utility>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "core/camera/stereo_rectifier.hpp"
+#include "core/odometry/frontend.hpp"
+#include "core/odometry/motion_refinement.hpp"
+#include "core/odometry/odometry.hpp"
+#include "tests/bench/synthetic_clip.hpp"
+#include "tests/core/geometry/synthetic_scene.hpp"
+
+namespace seavio::odometry {
+namespace {
+
+bool sameMat(const cv::Mat& a, const cv::Mat& b) {
+  if (a.size() != b.size() || a.type() != b.type()) return false;
+  if (a.empty()) return true;
+  for (int y = 0; y < a.rows; ++y)
+    if (std::memcmp(a.ptr(y), b.ptr(y), a.cols * a.elemSize()) != 0) return false;
+  return true;
+}
+
+cv::Mat noiseImage(int w, int h, uint32_t seed) {
+  cv::Mat img(h, w, CV_8UC1);
+  cv::RNG rng(seed);
+  rng.fill(img, cv::RNG::UNIFORM, 0, 256);
+  return img;
+}
+
+TEST(SnowFilterReuse, OpeningIsBitIdenticalToOpenCvForEveryDiscAndSize) {
+  // GIVEN noise images of several sizes (odd, tiny, wide) and discs of 2 to 9 px
+  for (const int k : {2, 3, 4, 5, 6, 9}) {
+    SnowFilter filter(SnowFilterParams{true, k});
+    for (const auto& [w, h] : std::vector<std::pair<int, int>>{{64, 48}, {37, 23}, {3, 2}, {1, 1}, {130, 7}}) {
+      const cv::Mat img = noiseImage(w, h, static_cast<uint32_t>(k * 1000 + w));
+      // WHEN opened by the reused filter, into another Mat and in place
+      cv::Mat out, inplace = img.clone();
+      filter.apply(img, out);
+      filter.apply(inplace, inplace);
+      // THEN both equal cv::morphologyEx's opening with the same disc and border
+      cv::Mat ref;
+      cv::morphologyEx(img, ref, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(k, k)),
+                       cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+      EXPECT_TRUE(sameMat(out, ref)) << "disc " << k << ", " << w << "x" << h;
+      EXPECT_TRUE(sameMat(inplace, ref)) << "disc " << k << ", " << w << "x" << h;
+      // AND the one-shot function is the same opening
+      cv::Mat once;
+      suppressSnow(img, once, SnowFilterParams{true, k});
+      EXPECT_TRUE(sameMat(once, ref));
+    }
+  }
+  // AND disabled, it copies
+  SnowFilter off(SnowFilterParams{false, 5});
+  const cv::Mat img = noiseImage(20, 10, 1);
+  cv::Mat out;
+  off.apply(img, out);
+  EXPECT_TRUE(sameMat(out, img));
+}
+
+TEST(IlluminationReuse, ScratchGivesTheSameFloatImageAsFreshOpenCvCalls) {
+  IlluminationScratch scratch;
+  IlluminationParams p;
+  for (const auto& [w, h, sigma] : std::vector<std::tuple<int, int, double>>{
+           {640, 480, 2.0}, {160, 120, 2.0}, {320, 240, 1.3}, {640, 480, 2.0}, {48, 16, 2.0}}) {
+    // GIVEN a textured, unevenly lit image
+    cv::Mat img = noiseImage(w, h, static_cast<uint32_t>(w + h));
+    cv::GaussianBlur(img, img, cv::Size(0, 0), 1.5);
+    p.blur_sigma = sigma;
+    // WHEN flat-fielded with the reused scratch and by the one-shot function
+    cv::Mat out, fresh;
+    normalizeIllumination(img, out, p, scratch);
+    normalizeIllumination(img, fresh, p);
+    // THEN the 8-bit results are identical
+    EXPECT_TRUE(sameMat(out, fresh)) << w << "x" << h;
+    // AND so are the kept float buffers before rounding (recomputed here step by step)
+    const int s = std::max(2, p.scale);
+    cv::Mat small, low_f, in_f;
+    cv::resize(img, small, cv::Size(std::max(1, w / s), std::max(1, h / s)), 0, 0, cv::INTER_AREA);
+    small.convertTo(small, CV_32F);
+    cv::GaussianBlur(small, small, cv::Size(0, 0), sigma, 0, cv::BORDER_REFLECT);
+    cv::max(small, 1.0, small);
+    EXPECT_TRUE(sameMat(small, scratch.small_f)) << w << "x" << h;
+    cv::resize(small, low_f, img.size(), 0, 0, cv::INTER_LINEAR);
+    img.convertTo(in_f, CV_32F);
+    cv::divide(in_f, low_f, in_f, p.target_grey);
+    EXPECT_TRUE(sameMat(in_f, scratch.in_f)) << w << "x" << h;
+  }
+}
+
+TEST(MotionRefinementReuse, KeptWorkspaceGivesTheSameRefinementAsAFreshOne) {
+  const auto rig = geometry::testing::makeRig();
+  const Eigen::Isometry3d T = geometry::testing::makeMotion();
+  MotionRefinementWorkspace ws;
+  // GIVEN inlier sets of changing size (one too small), with and without the rotation prior
+  for (const int n : {150, 4, 40, 220}) {
+    std::mt19937 rng(static_cast<uint32_t>(n));
+    const auto scene = geometry::testing::makeScene(rig, T, n, 0.0, 0.3, rng);
+    std::vector<uint32_t> inliers(scene.matches.size());
+    for (std::size_t i = 0; i < inliers.size(); ++i) inliers[i] = static_cast<uint32_t>(i);
+    Eigen::Isometry3d init = T;
+    init.translation() += Eigen::Vector3d(0.01, -0.02, 0.005);
+    RotationPrior prior;
+    prior.valid = n % 20 == 0;
+    prior.R_prev_curr = T.rotation();
+    prior.covariance = Eigen::Matrix3d::Identity() * 1e-6;
+    // WHEN refined with the kept workspace and with a fresh one
+    const MotionRefinementResult kept = refineMotion(rig, scene.matches, inliers, init, prior, {}, ws);
+    const MotionRefinementResult fresh = refineMotion(rig, scene.matches, inliers, init, prior, {});
+    // THEN the results are identical, bit for bit
+    EXPECT_EQ(kept.ok, fresh.ok) << n;
+    EXPECT_EQ(kept.T_prev_curr.matrix(), fresh.T_prev_curr.matrix()) << n;
+    EXPECT_EQ(kept.covariance, fresh.covariance) << n;
+    EXPECT_EQ(kept.rms_px, fresh.rms_px) << n;
+    EXPECT_EQ(fresh.ok, n >= 40) << n;
+  }
+}
+
+void expectSameFeatures(const FrameFeatures& a, const FrameFeatures& b) {
+  ASSERT_EQ(a.left.keypoints.size(), b.left.keypoints.size());
+  EXPECT_TRUE(sameMat(a.left.descriptors, b.left.descriptors));
+  EXPECT_TRUE(sameMat(a.right.descriptors, b.right.descriptors));
+  ASSERT_EQ(a.stereo.points.size(), b.stereo.points.size());
+  for (std::size_t i = 0; i < a.stereo.points.size(); ++i) {
+    EXPECT_EQ(a.stereo.points[i].left_index, b.stereo.points[i].left_index);
+    EXPECT_EQ(a.stereo.points[i].right_index, b.stereo.points[i].right_index);
+    EXPECT_EQ(a.stereo.points[i].p_R0, b.stereo.points[i].p_R0);
+  }
+  EXPECT_TRUE(sameMat(a.stereo.descriptors, b.stereo.descriptors));
+  EXPECT_EQ(a.stereo.laplacian_sign, b.stereo.laplacian_sign);
+}
+
+// Frames of the simulator's short-plain survey (640 x 480, seafloor texture and relief).
+const bench::SurveyClip& clip() {
+  static const bench::SurveyClip c = bench::renderClip(8, 3);
+  return c;
+}
+
+TEST(FrontendWorkspaceReuse, FramesIntoReusedBuffersEqualFreshFrames) {
+  std::string error;
+  auto rect = camera::StereoRectifier::create(clip().calibration, &error);
+  ASSERT_TRUE(rect) << error;
+  const Frontend frontend(std::move(*rect), features::FeatureParams{}, matching::StereoMatchParams{});
+  FrontendWorkspace ws;
+  FrameFeatures reused;
+  // GIVEN consecutive frames (and a blank one: no features, the buffers shrink to nothing)
+  for (int k = 0; k < 5; ++k) {
+    StereoFrame frame = clip().frames[static_cast<std::size_t>(k)];
+    frame.left = frame.left.clone();
+    frame.right = frame.right.clone();
+    if (k == 2) {
+      frame.left.setTo(90);
+      frame.right.setTo(90);
+    }
+    // WHEN processed into the same workspace and FrameFeatures, and into fresh ones
+    frontend.process(frame, 400.0, {}, ws, reused);
+    const FrameFeatures fresh = frontend.process(frame, 400.0, {});
+    // THEN every output is identical
+    expectSameFeatures(reused, fresh);
+    if (k != 2) {
+      EXPECT_GT(fresh.stereo.points.size(), 100u) << k;
+    }
+  }
+}
+
+TEST(OdometryWorkspaceReuse, ProcessTracksExactlyLikeFreshFrontendFrames) {
+  std::string error;
+  auto rect_a = camera::StereoRectifier::create(clip().calibration, &error);
+  auto rect_b = camera::StereoRectifier::create(clip().calibration, &error);
+  ASSERT_TRUE(rect_a && rect_b) << error;
+  for (const Mode mode : {Mode::kLocal, Mode::kGlobal}) {
+    OdometryParams p;
+    p.mode = mode;
+    // GIVEN two identical odometries; A reuses its buffers (process), B gets fresh frames
+    Odometry a(*rect_a, clip().imu_noise, p), b(*rect_b, clip().imu_noise, p);
+    int vision = 0;
+    for (std::size_t k = 0; k < clip().frames.size(); ++k) {
+      const StereoFrame& frame = clip().frames[k];
+      // WHEN both track the same frames
+      const OdometryResult ra = a.process(frame, clip().imu[k]);
+      const OdometryResult rb = b.track(b.frontend().process(frame, b.detectorThreshold(), {}), clip().imu[k]);
+      // THEN poses, sources and figures are identical, bit for bit
+      EXPECT_EQ(ra.T_W_B.matrix(), rb.T_W_B.matrix()) << k;
+      EXPECT_EQ(ra.covariance, rb.covariance) << k;
+      EXPECT_EQ(ra.source, rb.source) << k;
+      EXPECT_EQ(ra.quality.stereo_matches, rb.quality.stereo_matches) << k;
+      EXPECT_EQ(ra.quality.temporal_matches, rb.quality.temporal_matches) << k;
+      EXPECT_EQ(ra.quality.ransac_inliers, rb.quality.ransac_inliers) << k;
+      vision += ra.source == PoseSource::kVision;
+    }
+    // AND the frames were really tracked by vision (so the buffers were exercised)
+    EXPECT_GE(vision, 5);
+  }
+}
+
+}  // namespace
+}  // namespace seavio::odometry
