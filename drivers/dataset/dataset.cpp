@@ -269,7 +269,9 @@ Dataset loadKitti(const std::string& dir) {
   const std::string tpath = join(root, "times.txt");
   std::vector<int> tline;
   for (const auto& l : parse::readDataLines(tpath)) {
-    const double s = parse::numberField(parse::split(l.text, ' ')[0], tpath, l.number, "time [s]");
+    const auto fields = parse::split(l.text, ' ');
+    if (fields.empty()) throw InputError(tpath + ":" + std::to_string(l.number) + ": no time value");
+    const double s = parse::numberField(fields[0], tpath, l.number, "time [s]");
     const int64_t t = parse::secondsToNs(s, tpath, l.number, "time [s]");
     requireIncreasing(ds.frames.empty() ? 0 : ds.frames.back().t_ns, t, ds.frames.empty(), tpath, l.number);
     char name[32];

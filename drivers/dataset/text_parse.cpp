@@ -10,10 +10,14 @@
 namespace seavio::drivers::parse {
 namespace {
 
+// The same characters std::isspace and `operator>>` skip, so a line that is blank to split(' ')
+// is blank here too (a lone form feed used to pass as data and leave split() empty).
+constexpr const char* kSpace = " \t\n\v\f\r";
+
 std::string trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t\r\n");
+  const auto b = s.find_first_not_of(kSpace);
   if (b == std::string::npos) return {};
-  const auto e = s.find_last_not_of(" \t\r\n");
+  const auto e = s.find_last_not_of(kSpace);
   return s.substr(b, e - b + 1);
 }
 

@@ -79,6 +79,17 @@ TEST(KittiBadInput, ShortCalibRowBadTimesAndPoseCount) {
   expectInputError([&] { loadKitti(seq.string()); }, {"times.txt:2", "image_1/000001.png"});
 }
 
+// Found by the dataset_csv fuzzer: a line holding only a form feed passed as data, and the
+// time column was read from an empty field list.
+TEST(KittiBadInput, FormFeedAndVerticalTabLinesAreBlank) {
+  TempDir tmp;
+  const fs::path seq = makeKitti(tmp.path());
+  writeFile(seq / "times.txt", "0.000000e+00\n\f\n1.036400e-01\n\v \t\n2.072800e-01\n");
+  EXPECT_EQ(loadKitti(seq.string()).frames.size(), 3u);
+  writeFile(seq / "times.txt", "0.0\n\f\nO:\n");
+  expectInputError([&] { loadKitti(seq.string()); }, {"times.txt:3", "time [s]"});
+}
+
 TEST(Tum, WriteReadRoundTripIsExact) {
   TempDir tmp;
   std::vector<eval::TimedPose> poses(3);
