@@ -10,7 +10,6 @@
 #include <chrono>
 #include <cstddef>
 #include <exception>
-#include <future>
 #include <memory>
 #include <optional>
 #include <string>
@@ -86,27 +85,46 @@ class OdometryProcessor : public FrameProcessor {
     // Frontend::detect is const; each side has its own SURF workspace, so both images may be
     // described at once.
     const double threshold = f.detector_threshold;
-    std::optional<std::future<void>> right_done =
-        pool_->submit([&] { f.right = frontend.detect(right_rect, threshold, ws_.surf_right); });
+    // The right image's job reads its inputs from here (set once per frame: posting it
+    // allocates nothing, issue 8).
+    right_ = RightInput{&right_rect, threshold, &f.right};
+    const bool posted = pool_->post(right_job_);
     try {
-      f.left = frontend.detect(left_rect, threshold, ws_.surf_left);
+      frontend.detect(left_rect, threshold, ws_.surf_left, f.left);
     } catch (...) {
       // The job refers to `f` and the images: it must finish before they go out of scope.
-      if (right_done) right_done->wait();
+      if (posted) {
+        try {
+          right_job_.wait();
+        } catch (...) {  // the left image's exception is the one reported
+        }
+      }
       throw;
     }
-    if (right_done) {
-      right_done->get();  // rethrows the worker's exception, if any
+    if (posted) {
+      right_job_.wait();  // rethrows the worker's exception, if any
       ++parallel_frames_;
     } else {
-      f.right = frontend.detect(right_rect, threshold, ws_.surf_right);
+      frontend.detect(right_rect, threshold, ws_.surf_right, f.right);
     }
     f.times.features_ms = timer.lap_ms();
     frontend.matchStereo(f.left, f.right, ws_, f.stereo);
     f.times.stereo_ms = timer.lap_ms();
   }
 
+  /// What the right image's job works on this frame.
+  struct RightInput {
+    const cv::Mat* image = nullptr;
+    double threshold = 0;
+    features::Features* out = nullptr;
+  };
+
   odometry::Odometry odo_;
+  RightInput right_;
+  /// Detects right_ on the worker; declared before pool_, so the pool (joined first) never
+  /// outlives it. Captures only `this`: the processor is not movable.
+  RecurringJob right_job_{
+      [this] { odo_.frontend().detect(*right_.image, right_.threshold, ws_.surf_right, *right_.out); }};
   std::unique_ptr<WorkerPool> pool_;  ///< one persistent worker; null when sequential
   odometry::FrontendWorkspace ws_;    ///< rectified images and filter buffers, reused across frames
   odometry::FrameFeatures spare_;     ///< an earlier frame's buffers, refilled each frame

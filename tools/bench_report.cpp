@@ -685,7 +685,8 @@ void fitSurvey(ScalingResult& res) {
 ScalingResult runScalingBench(const ScalingBenchOptions& o) {
   if (o.dataset.empty() == o.frames_csv.empty())
     throw std::invalid_argument("bench scaling: give exactly one of --dataset and --frames-csv");
-  if (o.sweep_frames < 20) throw std::invalid_argument(fmt::format("--sweep-frames: must be >= 20, got {}", o.sweep_frames));
+  if (o.sweep_frames != 0 && o.sweep_frames < 20)
+    throw std::invalid_argument(fmt::format("--sweep-frames: must be 0 (no sweep) or >= 20, got {}", o.sweep_frames));
   if (o.max_frames < 0) throw std::invalid_argument(fmt::format("--max-frames: must be >= 0, got {}", o.max_frames));
   for (int t : o.targets)
     if (t < 10 || t > 20000) throw std::invalid_argument(fmt::format("--targets: each must be in [10, 20000], got {}", t));
@@ -712,6 +713,8 @@ ScalingResult runScalingBench(const ScalingBenchOptions& o) {
   writeFrameTimesCsv(res.frames_csv, res.frames);
   res.frames_png = (fs::path(o.out_dir) / "scaling-frames.png").string();
   plotFrameTimes(res.frames_png, res);
+  // Survey only (e.g. re-plotting the CSV of an earlier run): no sweep.
+  if (o.sweep_frames == 0) return res;
 
   // 2. Time against feature count: the same short sequence with the controller aiming at
   // each target in turn.
@@ -792,6 +795,10 @@ void printScaling(std::ostream& os, const ScalingResult& r) {
                     "frames, the map moved {} frames\n",
                     r.map_step_vs_km.slope, r.icp_frames, r.map_refined_frames);
   os << fmt::format("stage total against frame index: {:+.4f} ms per 1000 frames\n", r.time_vs_frame.slope * 1000.0);
+  if (r.sweep.empty()) {
+    os << "\nno feature-count sweep (--sweep-frames 0)\nplot: " << r.frames_png << "\ncsv: " << r.frames_csv << "\n";
+    return;
+  }
   os << "\nPer-frame time against feature count (issue 8: roughly linear; one thread, CPU clock)\n";
   os << fmt::format("{:>8}{:>8}{:>18}{:>18}{:>18}{:>18}\n", "target", "frames", "features med/p99", "CPU ms med/p99",
                     "wall ms med/p99", "features ms med");

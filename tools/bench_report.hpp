@@ -179,7 +179,7 @@ struct ScalingBenchOptions {
   std::string frames_csv;  ///< or per-frame times of an earlier run (bench paper writes them)
   int max_frames = 0;      ///< > 0: only the first N frames of `dataset`
   std::vector<int> targets{250, 500, 1000, 1500, 2000};  ///< feature-count targets of the sweep
-  int sweep_frames = 150;  ///< frames of the short-plain sequence for the sweep (>= 20)
+  int sweep_frames = 150;  ///< frames of the short-plain sequence for the sweep (>= 20; 0 = no sweep)
   int width_px = 0;        ///< sweep image width, 0 = 640 x 480
   uint32_t seed = 3;
   std::string out_dir = "bench-scaling";

@@ -63,6 +63,7 @@ void runScaling(BenchCliOptions& o) {
   std::ostringstream os;
   os << "seavio bench scaling: " << (o.scaling.frames_csv.empty() ? o.scaling.dataset : o.scaling.frames_csv)
      << "; sweep over " << o.scaling.sweep_frames << " frames of short-plain, seed " << o.scaling.seed << "\n";
+  if (o.scaling.sweep_frames == 0) os << "(survey only)\n";
   printScaling(os, r);
   emit(os.str(), o.scaling.out_dir + "/scaling.txt");
 }
@@ -114,7 +115,7 @@ const RegisterCommand kRegister("bench", [](CLI::App& app) {
                       "or: per-frame times of an earlier run (bench paper writes OUT/global-plain-frames.csv)");
   scaling->add_option("--max-frames", o->scaling.max_frames, "only the first N frames of --dataset");
   scaling->add_option("--targets", o->scaling.targets, "feature-count targets of the sweep")->delimiter(',');
-  scaling->add_option("--sweep-frames", o->scaling.sweep_frames, "frames of the short-plain sequence for the sweep");
+  scaling->add_option("--sweep-frames", o->scaling.sweep_frames, "frames of the short-plain sequence for the sweep (0: no sweep, survey only)");
   scaling->add_option("--seed", o->scaling_seed, "simulator seed of the sweep sequence");
   scaling->add_option("--width", o->scaling.width_px, "sweep image width [px] (height 3/4 of it); default 640");
   scaling->add_option("--out", o->scaling.out_dir, "folder for the sweep sequence, CSVs, plots and the table");

@@ -73,9 +73,17 @@ void drawAxes(cv::Mat& img, const Axes& a, const std::string& xlabel, const std:
   const int lx = std::max(0, a.area.x - 75), ly = a.area.y + (a.area.height - lab.rows) / 2;
   if (ly >= 0 && ly + lab.rows <= img.rows && lx + lab.cols <= img.cols)
     lab.copyTo(img(cv::Rect(lx, ly, lab.cols, lab.rows)));
-  const cv::Size tsz = cv::getTextSize(title, kFont, 0.6, 1, &base);
-  cv::putText(img, title, {a.area.x + (a.area.width - tsz.width) / 2, a.area.y - 12}, kFont, 0.6, kBlack, 1,
-              cv::LINE_AA);
+  // Title centred over the axes, shifted and if need be shrunk so it never leaves the image
+  // (a long title over a narrow plot was clipped at the right edge).
+  double title_scale = 0.6;
+  cv::Size tsz = cv::getTextSize(title, kFont, title_scale, 1, &base);
+  const int room = std::max(1, img.cols - 8);
+  if (tsz.width > room) {
+    title_scale *= static_cast<double>(room) / tsz.width;
+    tsz = cv::getTextSize(title, kFont, title_scale, 1, &base);
+  }
+  const int tx = std::clamp(a.area.x + (a.area.width - tsz.width) / 2, 4, std::max(4, img.cols - 4 - tsz.width));
+  cv::putText(img, title, {tx, a.area.y - 12}, kFont, title_scale, kBlack, 1, cv::LINE_AA);
 }
 
 void polyline(cv::Mat& img, const Axes& a, const std::vector<cv::Point2d>& pts, const cv::Scalar& colour,

@@ -107,20 +107,36 @@ Features FeatureExtractor::extract(const cv::Mat& gray8, double threshold) const
 }
 
 Features FeatureExtractor::extract(const cv::Mat& gray8, double threshold, SurfWorkspace& workspace) const {
+  Features f;
+  extract(gray8, threshold, workspace, f);
+  return f;
+}
+
+void FeatureExtractor::extract(const cv::Mat& gray8, double threshold, SurfWorkspace& workspace, Features& f) const {
   if (!gray8.empty() && gray8.type() != CV_8UC1) {
     throw std::invalid_argument("FeatureExtractor: expected an 8-bit single-channel image, got type " +
                                 std::to_string(gray8.type()));
   }
-  Features f;
-  if (gray8.empty()) return f;
+  f.keypoints.clear();
+  f.norm_type = cv::NORM_L2;
+  if (gray8.empty()) {
+    f.descriptors = cv::Mat();
+    return;
+  }
   const int cap = params_.max_features;
+  if (params_.type == DetectorType::kSurf) {
+    // Into f's own buffers (kept from an earlier frame by the caller): no allocation.
+    surf_.detectAndCompute(gray8, threshold, f.keypoints, f.descriptors, workspace);
+    return;
+  }
+  // OpenCV's detectors write into an output Mat of the right size even when another header
+  // shares it: they get a fresh one (they allocate per call anyway).
+  f.descriptors.release();
+  f.norm_type = params_.type == DetectorType::kSift ? cv::NORM_L2 : cv::NORM_HAMMING;
   switch (params_.type) {
     case DetectorType::kSurf:
-      f.norm_type = cv::NORM_L2;
-      surf_.detectAndCompute(gray8, threshold, f.keypoints, f.descriptors, workspace);
-      return f;
+      break;
     case DetectorType::kSift: {
-      f.norm_type = cv::NORM_L2;
       auto sift = cv::SIFT::create(cap, 3, threshold);
       sift->detectAndCompute(gray8, cv::noArray(), f.keypoints, f.descriptors);
       // Unit length like SURF's, so one descriptor-distance threshold serves both.
@@ -128,7 +144,6 @@ Features FeatureExtractor::extract(const cv::Mat& gray8, double threshold, SurfW
       break;
     }
     case DetectorType::kOrb: {
-      f.norm_type = cv::NORM_HAMMING;
       const int fast = std::clamp(static_cast<int>(std::lround(threshold)), 1, 255);
       auto orb = cv::ORB::create(cap > 0 ? cap : 100000, 1.2f, 8, 31, 0, 2, cv::ORB::HARRIS_SCORE,
                                  31, fast);
@@ -136,14 +151,12 @@ Features FeatureExtractor::extract(const cv::Mat& gray8, double threshold, SurfW
       break;
     }
     case DetectorType::kAkaze: {
-      f.norm_type = cv::NORM_HAMMING;
       auto akaze = cv::AKAZE::create(cv::AKAZE::DESCRIPTOR_MLDB, 0, 3, static_cast<float>(threshold));
       akaze->detectAndCompute(gray8, cv::noArray(), f.keypoints, f.descriptors);
       break;
     }
   }
   keepStrongest(f, cap);
-  return f;
 }
 
 }  // namespace seavio::features

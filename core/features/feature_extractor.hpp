@@ -67,6 +67,10 @@ class FeatureExtractor {
   /// The same with SURF's buffers in `workspace` (kept by the caller across frames, one per
   /// thread calling at once); the OpenCV detectors ignore it.
   Features extract(const cv::Mat& gray8, double threshold, SurfWorkspace& workspace) const;
+  /// The same into `out`, whose buffers are reused (give back an earlier frame's Features):
+  /// with SURF, repeated calls on images of one size allocate nothing (issue 8). Identical
+  /// keypoints and descriptors.
+  void extract(const cv::Mat& gray8, double threshold, SurfWorkspace& workspace, Features& out) const;
 
  private:
   FeatureParams params_;

@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "core/features/integral_image.hpp"
+#include "core/features/mat_rows.hpp"
 
 #if defined(__SSE2__)
 #include <emmintrin.h>  // baseline on x86-64: no -march flag needed
@@ -73,6 +74,29 @@ struct HessianFilter {
   float dyy(const uint32_t* p) const { return (yy_all.sum(p) - 3.f * yy_mid.sum(p)) * inv_lobe_area; }
 };
 
+#if defined(__GNUC__)
+#define SEAVIO_SURF_INLINE inline __attribute__((always_inline))
+#define SEAVIO_SURF_NOINLINE __attribute__((noinline))
+#else
+#define SEAVIO_SURF_INLINE inline
+#define SEAVIO_SURF_NOINLINE
+#endif
+
+/// det(H) = Dxx Dyy - (0.9 Dxy)^2 (Bay 2008, eq. 4) from the eight box sums of one filter
+/// centre (xx: whole and middle box; yy: the same; xy: top-left, top-right, bottom-left,
+/// bottom-right lobes), each exact modulo 2^32, normalised by `wl` = 1 / lobe area and `wxy` =
+/// 0.9 / xy lobe area. The one formula of every kernel below and of hessianAt, so responses
+/// from any of them are bit-identical.
+SEAVIO_SURF_INLINE float hessianResponse(uint32_t xx_all, uint32_t xx_mid, uint32_t yy_all, uint32_t yy_mid,
+                                         uint32_t tl, uint32_t tr, uint32_t bl, uint32_t br, float wl, float wxy) {
+  const int32_t xx = static_cast<int32_t>(xx_all - 3u * xx_mid);
+  const int32_t yy = static_cast<int32_t>(yy_all - 3u * yy_mid);
+  const int32_t xy = static_cast<int32_t>(tl + br - tr - bl);
+  const float dxx = static_cast<float>(xx) * wl, dyy = static_cast<float>(yy) * wl;
+  const float dxy = static_cast<float>(xy) * wxy;
+  return dxx * dyy - dxy * dxy;
+}
+
 /// det(H) along one grid row of `n` samples `step` pixels apart, starting at `base` (the
 /// table entry of the first filter centre). Offsets are copied to locals so the compiler keeps
 /// them in registers; on the finest octave step is 1 and the loop vectorises.
@@ -89,15 +113,10 @@ inline void hessianRow(const HessianFilter& f, const uint32_t* base, std::ptrdif
   const float wl = f.inv_lobe_area, wxy = f.inv_xy_area * kDxyWeight;
   for (int j = 0; j < n; ++j) {
     const uint32_t* p = base + j * step;
-    const int32_t xx = static_cast<int32_t>((p[xa0] - p[xa1] - p[xa2] + p[xa3]) -
-                                            3u * (p[xm0] - p[xm1] - p[xm2] + p[xm3]));
-    const int32_t yy = static_cast<int32_t>((p[ya0] - p[ya1] - p[ya2] + p[ya3]) -
-                                            3u * (p[ym0] - p[ym1] - p[ym2] + p[ym3]));
-    const int32_t xy = static_cast<int32_t>((p[t0] - p[t1] - p[t2] + p[t3]) + (p[b0] - p[b1] - p[b2] + p[b3]) -
-                                            (p[r0] - p[r1] - p[r2] + p[r3]) - (p[l0] - p[l1] - p[l2] + p[l3]));
-    const float dxx = static_cast<float>(xx) * wl, dyy = static_cast<float>(yy) * wl;
-    const float dxy = static_cast<float>(xy) * wxy;
-    out[j] = dxx * dyy - dxy * dxy;
+    out[j] = hessianResponse(p[xa0] - p[xa1] - p[xa2] + p[xa3], p[xm0] - p[xm1] - p[xm2] + p[xm3],
+                             p[ya0] - p[ya1] - p[ya2] + p[ya3], p[ym0] - p[ym1] - p[ym2] + p[ym3],
+                             p[t0] - p[t1] - p[t2] + p[t3], p[r0] - p[r1] - p[r2] + p[r3],
+                             p[l0] - p[l1] - p[l2] + p[l3], p[b0] - p[b1] - p[b2] + p[b3], wl, wxy);
   }
 }
 
@@ -132,12 +151,7 @@ void hessianRowFixed(const HessianFilter& f, const uint32_t* base, std::ptrdiff_
     const uint32_t tr = q1[c + L + 1] - q0[c + L + 1] - q1[c + 1] + q0[c + 1];
     const uint32_t bl = q3[c] - q2[c] - q3[c - L] + q2[c - L];
     const uint32_t br = q3[c + L + 1] - q2[c + L + 1] - q3[c + 1] + q2[c + 1];
-    const int32_t xx = static_cast<int32_t>(xx_all - 3u * xx_mid);
-    const int32_t yy = static_cast<int32_t>(yy_all - 3u * yy_mid);
-    const int32_t xy = static_cast<int32_t>(tl + br - tr - bl);
-    const float dxx = static_cast<float>(xx) * wl, dyy = static_cast<float>(yy) * wl;
-    const float dxy = static_cast<float>(xy) * wxy;
-    out[j] = dxx * dyy - dxy * dxy;
+    out[j] = hessianResponse(xx_all, xx_mid, yy_all, yy_mid, tl, tr, bl, br, wl, wxy);
   }
 }
 
@@ -178,12 +192,7 @@ void hessianRowUnit(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t
     const uint32_t tr = d1[c + L + 1] - d1[c + 1];
     const uint32_t bl = d2[c] - d2[c - L];
     const uint32_t br = d2[c + L + 1] - d2[c + 1];
-    const int32_t xx = static_cast<int32_t>(xx_all - 3u * xx_mid);
-    const int32_t yy = static_cast<int32_t>(yy_all - 3u * yy_mid);
-    const int32_t xy = static_cast<int32_t>(tl + br - tr - bl);
-    const float dxx = static_cast<float>(xx) * wl, dyy = static_cast<float>(yy) * wl;
-    const float dxy = static_cast<float>(xy) * wxy;
-    out[c] = dxx * dyy - dxy * dxy;
+    out[c] = hessianResponse(xx_all, xx_mid, yy_all, yy_mid, tl, tr, bl, br, wl, wxy);
   }
 }
 
@@ -283,12 +292,7 @@ void hessianRowStep2(const HessianFilter& f, const uint32_t* base, std::ptrdiff_
     const uint32_t tr = splitAt<L + 1, H>(d1e, d1o, j) - splitAt<1, H>(d1e, d1o, j);
     const uint32_t bl = splitAt<0, H>(d2e, d2o, j) - splitAt<-L, H>(d2e, d2o, j);
     const uint32_t br = splitAt<L + 1, H>(d2e, d2o, j) - splitAt<1, H>(d2e, d2o, j);
-    const int32_t xx = static_cast<int32_t>(xx_all - 3u * xx_mid);
-    const int32_t yy = static_cast<int32_t>(yy_all - 3u * yy_mid);
-    const int32_t xy = static_cast<int32_t>(tl + br - tr - bl);
-    const float dxx = static_cast<float>(xx) * wl, dyy = static_cast<float>(yy) * wl;
-    const float dxy = static_cast<float>(xy) * wxy;
-    out[j] = dxx * dyy - dxy * dxy;
+    out[j] = hessianResponse(xx_all, xx_mid, yy_all, yy_mid, tl, tr, bl, br, wl, wxy);
   }
 }
 
@@ -344,22 +348,9 @@ void hessianLayer(const HessianFilter& f, const uint32_t* sum, std::ptrdiff_t st
 /// on demand is bit-identical to one from a full layer.
 inline float hessianAt(const HessianFilter& f, const uint32_t* p) {
   const auto box = [p](const Box& b) { return p[b.a] - p[b.b] - p[b.c] + p[b.d]; };
-  const int32_t xx = static_cast<int32_t>(box(f.xx_all) - 3u * box(f.xx_mid));
-  const int32_t yy = static_cast<int32_t>(box(f.yy_all) - 3u * box(f.yy_mid));
-  const int32_t xy = static_cast<int32_t>(box(f.xy_tl) + box(f.xy_br) - box(f.xy_tr) - box(f.xy_bl));
-  const float wl = f.inv_lobe_area, wxy = f.inv_xy_area * kDxyWeight;
-  const float dxx = static_cast<float>(xx) * wl, dyy = static_cast<float>(yy) * wl;
-  const float dxy = static_cast<float>(xy) * wxy;
-  return dxx * dyy - dxy * dxy;
+  return hessianResponse(box(f.xx_all), box(f.xx_mid), box(f.yy_all), box(f.yy_mid), box(f.xy_tl), box(f.xy_tr),
+                         box(f.xy_bl), box(f.xy_br), f.inv_lobe_area, f.inv_xy_area * kDxyWeight);
 }
-
-#if defined(__GNUC__)
-#define SEAVIO_SURF_INLINE inline __attribute__((always_inline))
-#define SEAVIO_SURF_NOINLINE __attribute__((noinline))
-#else
-#define SEAVIO_SURF_INLINE inline
-#define SEAVIO_SURF_NOINLINE
-#endif
 
 /// Mean grey level of the box x box cell whose top-left corner is at the sub-pixel position
 /// (fx, fy) = (x + ax, y + ay): bilinear blend of the four integer placements, each an exact
@@ -790,7 +781,8 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
   keypoints.clear();
   // One allocation up front instead of a dozen regrowths (a caller reusing its vector pays none).
   keypoints.reserve(1024);
-  if (descriptors != nullptr) descriptors->create(0, descriptorSize(), CV_32F);
+  // The caller's descriptor rows are kept for reuse (fitRows), not released.
+  if (descriptors != nullptr) fitRows(*descriptors, 0, descriptorSize(), CV_32F);
   if (gray8.empty()) return;
   if (gray8.type() != CV_8UC1) {
     throw std::invalid_argument("Surf: expected an 8-bit single-channel image, got type " +
@@ -924,8 +916,8 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
 
   // --- Orientation (Bay 2008, 4.1) and descriptor (4.2), per keypoint.
   const int dsize = descriptorSize();
-  cv::Mat desc;
-  if (descriptors != nullptr) desc.create(static_cast<int>(keypoints.size()), dsize, CV_32F);
+  // Written in place: a caller passing the previous frame's descriptors allocates nothing.
+  if (descriptors != nullptr) fitRows(*descriptors, static_cast<int>(keypoints.size()), dsize, CV_32F);
   // Gradient samples of the orientation disc (113 within radius 6), room for a whole last group.
   constexpr int kOriMax = 128;
   static_assert(kOriSamples + 3 <= kOriMax, "the disc and a padded last group fit");
@@ -1090,7 +1082,7 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
       }
       sampler.sample((kPatch + 1) * (kPatch + 1), box, inv_box2, sum, stride, gray8, patch.data(),
                      [&](float x, float y) { return cellMean(x, y, box, inv_box2); });
-      float* vec = desc.ptr<float>(static_cast<int>(kept));
+      float* vec = descriptors->ptr<float>(static_cast<int>(kept));
 #if defined(__SSE2__)
       if (!params_.extended) {
         describe64(patch.data(), desc_weights_.data(), vec);
@@ -1165,11 +1157,7 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
     keypoints[kept++] = kp;
   }
   keypoints.resize(kept);
-  if (descriptors != nullptr) {
-    *descriptors = kept == static_cast<std::size_t>(desc.rows)
-                       ? desc
-                       : desc.rowRange(0, static_cast<int>(kept)).clone();
-  }
+  if (descriptors != nullptr) descriptors->resize(kept);  // in place: rows 0..kept-1 are the kept ones
 }
 
 }  // namespace seavio::features

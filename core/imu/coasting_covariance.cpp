@@ -4,32 +4,44 @@
 #include <cmath>
 
 #include "core/common/se3.hpp"
+#include "core/imu/imu_interpolation.hpp"
 
 namespace seavio::imu {
-namespace {
-
-/// Gyro and accelerometer reading at `t_ns`, linear between samples, held beyond the ends.
-std::pair<Eigen::Vector3d, Eigen::Vector3d> readingAt(std::span<const ImuSample> s, int64_t t_ns) {
-  if (t_ns <= s.front().t_ns) return {s.front().gyro_rad_s, s.front().accel_m_s2};
-  if (t_ns >= s.back().t_ns) return {s.back().gyro_rad_s, s.back().accel_m_s2};
-  const auto it = std::lower_bound(s.begin(), s.end(), t_ns,
-                                   [](const ImuSample& a, int64_t t) { return a.t_ns < t; });
-  const ImuSample& b = *it;
-  const ImuSample& a = *(it - 1);
-  const double span = static_cast<double>(b.t_ns - a.t_ns);
-  const double w = span > 0 ? static_cast<double>(t_ns - a.t_ns) / span : 0.0;
-  return {(1 - w) * a.gyro_rad_s + w * b.gyro_rad_s, (1 - w) * a.accel_m_s2 + w * b.accel_m_s2};
-}
-
-}  // namespace
-
 void CoastingCovariance::start(const CoastingStart& s) {
   P_.setZero();
   P_.block<3, 3>(0, 0).diagonal().setConstant(s.attitude_sigma_rad * s.attitude_sigma_rad);
   P_.block<3, 3>(3, 3).diagonal().setConstant(s.velocity_sigma_m_s * s.velocity_sigma_m_s);
   P_.block<3, 3>(9, 9).diagonal().setConstant(s.gyro_bias_sigma_rad_s * s.gyro_bias_sigma_rad_s);
   P_.block<3, 3>(12, 12).diagonal().setConstant(s.accel_bias_sigma_m_s2 * s.accel_bias_sigma_m_s2);
+  accel_correction_W_.setZero();
   active_ = true;
+}
+
+void CoastingCovariance::setMeasuredVelocity(const Eigen::Matrix3d& velocity_covariance, double age_s,
+                                             const Eigen::Matrix3d& R_W_B, const Eigen::Vector3d& specific_force_B) {
+  P_.block<3, 3>(3, 3) = 0.5 * (velocity_covariance + velocity_covariance.transpose());
+  // Over age_s the IMU increments carried the same tilt and accelerometer-bias errors that the
+  // coasting will carry (the transition of propagate() with the attitude held): the velocity
+  // error gains -R [f]x dtheta age_s - R dba age_s, correlated with those states.
+  Matrix15d A = Matrix15d::Identity();
+  A.block<3, 3>(3, 0) = -R_W_B * se3::skew(specific_force_B) * age_s;
+  A.block<3, 3>(3, 12) = -R_W_B * age_s;
+  P_ = A * P_ * A.transpose();
+  P_ = 0.5 * (P_ + P_.transpose());
+}
+
+void CoastingCovariance::setMeasuredMotion(const Eigen::Matrix3d& velocity_covariance,
+                                           const Eigen::Matrix3d& velocity_acceleration_covariance,
+                                           const Eigen::Matrix3d& acceleration_covariance,
+                                           const Eigen::Vector3d& acceleration_error, const Eigen::Matrix3d& R_W_B) {
+  P_.block<3, 3>(3, 3) = 0.5 * (velocity_covariance + velocity_covariance.transpose());
+  // A bias error db accelerates by -R db (propagate()'s transition), so the fit's acceleration
+  // error da is the bias error -R^T da.
+  P_.block<3, 3>(12, 12) += R_W_B.transpose() * acceleration_covariance * R_W_B;
+  P_.block<3, 3>(3, 12) = -velocity_acceleration_covariance * R_W_B;
+  P_.block<3, 3>(12, 3) = P_.block<3, 3>(3, 12).transpose();
+  P_ = 0.5 * (P_ + P_.transpose());
+  accel_correction_W_ = acceleration_error;
 }
 
 void CoastingCovariance::propagate(const Eigen::Matrix3d& R_W_B, const Eigen::Vector3d& gyro_bias,
@@ -42,7 +54,8 @@ void CoastingCovariance::propagate(const Eigen::Matrix3d& R_W_B, const Eigen::Ve
   // the tilt error still couples into velocity through it.
   auto reading = [&](int64_t t) -> std::pair<Eigen::Vector3d, Eigen::Vector3d> {
     if (samples.empty()) return {gyro_bias, accel_bias + R_W_B.transpose() * Eigen::Vector3d(0, 0, kGravity_m_s2)};
-    return readingAt(samples, t);
+    const ImuSample m = sampleAt(samples, t);
+    return {m.gyro_rad_s, m.accel_m_s2};
   };
   int64_t t_prev = t0_ns;
   auto prev = reading(t0_ns);

@@ -37,6 +37,26 @@ class CoastingCovariance {
   /// Starts an outage at the last visual fix: position error zero (the fix's own covariance
   /// is the caller's), the rest from `s`.
   void start(const CoastingStart& s);
+  /// After start(): velocity and the acceleration the IMU missed, both measured by a parabola
+  /// fit over visual fixes (HandoverVelocity::has_acceleration), in W. The dead reckoning is
+  /// then corrected by `acceleration_error` (accelerationCorrection()); what remains is the
+  /// fit's uncertainty, carried as an accelerometer-bias error (the same W acceleration for
+  /// an attitude `R_W_B`) correlated with the velocity, on top of the bias prior (the bias
+  /// turns with the vehicle, the correction does not).
+  void setMeasuredMotion(const Eigen::Matrix3d& velocity_covariance, const Eigen::Matrix3d& velocity_acceleration_covariance,
+                         const Eigen::Matrix3d& acceleration_covariance, const Eigen::Vector3d& acceleration_error,
+                         const Eigen::Matrix3d& R_W_B);
+  /// The acceleration in W to add to the dead reckoning while coasting [m/s^2] (zero unless
+  /// setMeasuredMotion set it).
+  const Eigen::Vector3d& accelerationCorrection() const { return accel_correction_W_; }
+  /// After start(): the velocity error is that of a velocity measured over a window of visual
+  /// fixes (core/imu/coasting_handover.hpp) instead of `velocity_sigma_m_s`: `velocity_covariance`
+  /// [m^2/s^2, W] at the fixes' mean time, `age_s` before the start, carried to the start by
+  /// the error dynamics of the IMU increments it was computed with, so the tilt and
+  /// accelerometer-bias errors that bent them stay correlated with it. `R_W_B` and
+  /// `specific_force_B` [m/s^2] are the attitude and IMU reading at the start.
+  void setMeasuredVelocity(const Eigen::Matrix3d& velocity_covariance, double age_s, const Eigen::Matrix3d& R_W_B,
+                           const Eigen::Vector3d& specific_force_B);
   /// Ends the outage (vision is back).
   void stop() { active_ = false; }
   bool active() const { return active_; }
@@ -55,6 +75,7 @@ class CoastingCovariance {
 
  private:
   Matrix15d P_ = Matrix15d::Zero();
+  Eigen::Vector3d accel_correction_W_ = Eigen::Vector3d::Zero();
   bool active_ = false;
 };
 

@@ -4,27 +4,9 @@
 #include <cmath>
 
 #include "core/common/se3.hpp"
+#include "core/imu/imu_interpolation.hpp"
 
 namespace seavio::imu {
-namespace {
-
-/// Measurement at time t by linear interpolation between neighbouring samples (held constant
-/// beyond the ends).
-ImuSample sampleAt(std::span<const ImuSample> s, int64_t t_ns) {
-  if (s.empty()) return ImuSample{t_ns, {}, {}};
-  if (t_ns <= s.front().t_ns) return ImuSample{t_ns, s.front().gyro_rad_s, s.front().accel_m_s2};
-  if (t_ns >= s.back().t_ns) return ImuSample{t_ns, s.back().gyro_rad_s, s.back().accel_m_s2};
-  const auto it = std::lower_bound(s.begin(), s.end(), t_ns,
-                                   [](const ImuSample& a, int64_t t) { return a.t_ns < t; });
-  const ImuSample& b = *it;
-  const ImuSample& a = *(it - 1);
-  const double span = static_cast<double>(b.t_ns - a.t_ns);
-  const double w = span > 0 ? static_cast<double>(t_ns - a.t_ns) / span : 0.0;
-  return ImuSample{t_ns, (1 - w) * a.gyro_rad_s + w * b.gyro_rad_s, (1 - w) * a.accel_m_s2 + w * b.accel_m_s2};
-}
-
-}  // namespace
-
 ImuPropagation propagate(const NavState& start, const Matrix9d& start_covariance,
                          std::span<const ImuSample> samples, int64_t t_end_ns, const ImuNoise& noise) {
   ImuPropagation out;

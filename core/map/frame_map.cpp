@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <unordered_set>
+#include <utility>
 
 namespace seavio::map {
 
@@ -50,20 +51,25 @@ FrameMap::CellKey FrameMap::keyOf(const Eigen::Vector3d& p) const {
 }
 
 template <typename Fn>
-void FrameMap::forEachNearby(const Eigen::Vector3d& position_W, Fn&& fn) const {
-  // Cells are one selection radius wide, so the 27 around the query hold every keyframe
-  // within that radius (and within any smaller one, such as the overlap radius).
+void FrameMap::forEachInCells(const Eigen::Vector3d& position_W, int64_t reach, Fn&& fn) const {
   const double c = std::max(params_.selection_radius_m, 0.1);
   const int64_t cx = static_cast<int64_t>(std::floor(position_W.x() / c));
   const int64_t cy = static_cast<int64_t>(std::floor(position_W.y() / c));
   const int64_t cz = static_cast<int64_t>(std::floor(position_W.z() / c));
-  for (int64_t dx = -1; dx <= 1; ++dx)
-    for (int64_t dy = -1; dy <= 1; ++dy)
-      for (int64_t dz = -1; dz <= 1; ++dz) {
+  for (int64_t dx = -reach; dx <= reach; ++dx)
+    for (int64_t dy = -reach; dy <= reach; ++dy)
+      for (int64_t dz = -reach; dz <= reach; ++dz) {
         const auto it = grid_.find(keyOf(cx + dx, cy + dy, cz + dz));
         if (it == grid_.end()) continue;
         for (uint32_t idx : it->second) fn(idx);
       }
+}
+
+template <typename Fn>
+void FrameMap::forEachNearby(const Eigen::Vector3d& position_W, Fn&& fn) const {
+  // Cells are one selection radius wide, so the 27 around the query hold every keyframe
+  // within that radius (and within any smaller one, such as the overlap radius).
+  forEachInCells(position_W, 1, std::forward<Fn>(fn));
 }
 
 const MapFrame* FrameMap::coveringKeyframe(const Eigen::Isometry3d& T_W_R0) const {
@@ -124,15 +130,42 @@ std::vector<const MapFrame*> FrameMap::selectNear(const Eigen::Vector3d& positio
     const double d2 = (f.T_W_R0.translation() - position_W).squaredNorm();
     if (d2 <= r2) found.emplace_back(d2, &f);
   });
+  return nearestFirst(found, static_cast<std::size_t>(std::max(params_.max_selected_frames, 0)));
+}
+
+std::vector<const MapFrame*> FrameMap::nearestFirst(std::vector<std::pair<double, const MapFrame*>>& found,
+                                                    std::size_t cap) {
   std::sort(found.begin(), found.end(), [](const auto& a, const auto& b) {
     return a.first < b.first || (a.first == b.first && a.second->id < b.second->id);
   });
-  if (found.size() > static_cast<std::size_t>(std::max(params_.max_selected_frames, 0)))
-    found.resize(static_cast<std::size_t>(std::max(params_.max_selected_frames, 0)));
+  if (found.size() > cap) found.resize(cap);
   std::vector<const MapFrame*> out;
   out.reserve(found.size());
   for (const auto& f : found) out.push_back(f.second);
   return out;
+}
+
+std::vector<const MapFrame*> FrameMap::selectWithin(const Eigen::Vector3d& position_W, double radius_m) const {
+  std::vector<std::pair<double, const MapFrame*>> found;
+  if (!(radius_m >= 0.0) || !position_W.allFinite()) return {};
+  const double c = std::max(params_.selection_radius_m, 0.1);
+  // Cells one selection radius wide: ceil(r / c) cells each way hold every keyframe within r.
+  // The reach is bounded so that a runaway radius cannot turn a query into a scan of the
+  // whole grid's key space; beyond it every stored keyframe is tested directly.
+  const double reach_cells = std::ceil(radius_m / c);
+  const double r2 = radius_m * radius_m;
+  const auto test = [&](uint32_t idx) {
+    const MapFrame& f = frames_[idx];
+    const double d2 = (f.T_W_R0.translation() - position_W).squaredNorm();
+    if (d2 <= r2) found.emplace_back(d2, &f);
+  };
+  const double cells_visited = std::pow(2.0 * reach_cells + 1.0, 3.0);
+  if (cells_visited > static_cast<double>(frames_.size())) {
+    for (uint32_t idx = 0; idx < frames_.size(); ++idx) test(idx);
+  } else {
+    forEachInCells(position_W, static_cast<int64_t>(reach_cells), test);
+  }
+  return nearestFirst(found, found.size());
 }
 
 ModelCloud FrameMap::buildModel(const std::vector<const MapFrame*>& frames) const {

@@ -83,6 +83,10 @@ class FrameMap {
 
   /// Keyframes within the selection radius of `position_W`, nearest first, capped.
   std::vector<const MapFrame*> selectNear(const Eigen::Vector3d& position_W) const;
+  /// Every keyframe within `radius_m` of `position_W` (any radius: the grid cells it spans
+  /// are visited), nearest first, uncapped. For the re-observation search, whose radius grows
+  /// with the drift since the old ground was mapped.
+  std::vector<const MapFrame*> selectWithin(const Eigen::Vector3d& position_W, double radius_m) const;
   /// Union of the frames' points in W, voxel-downsampled.
   ModelCloud buildModel(const std::vector<const MapFrame*>& frames) const;
 
@@ -102,6 +106,12 @@ class FrameMap {
   /// Calls fn(index) for every keyframe in the 27 grid cells around `position_W`.
   template <typename Fn>
   void forEachNearby(const Eigen::Vector3d& position_W, Fn&& fn) const;
+  /// Calls fn(index) for every keyframe in the cells within `reach` cells of `position_W`'s.
+  template <typename Fn>
+  void forEachInCells(const Eigen::Vector3d& position_W, int64_t reach, Fn&& fn) const;
+  /// Sorted nearest first (ties by id), cut to `cap`.
+  static std::vector<const MapFrame*> nearestFirst(std::vector<std::pair<double, const MapFrame*>>& found,
+                                                   std::size_t cap);
 
   FrameMapParams params_;
   std::vector<MapFrame> frames_;

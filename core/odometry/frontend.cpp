@@ -1,39 +1,220 @@
 #include "core/odometry/frontend.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include <opencv2/imgproc.hpp>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>  // baseline on x86-64
+#endif
+
 #include "core/common/stage_timer.hpp"
+#include "core/features/mat_rows.hpp"
 
 namespace seavio::odometry {
 
-void normalizeIllumination(const cv::Mat& in, cv::Mat& out, const IlluminationParams& params) {
-  const int s = std::max(2, params.scale);
-  cv::Mat small, low, in_f, low_f;
-  cv::resize(in, small, cv::Size(std::max(1, in.cols / s), std::max(1, in.rows / s)), 0, 0, cv::INTER_AREA);
-  small.convertTo(small, CV_32F);
-  if (params.blur_sigma > 0) cv::GaussianBlur(small, small, cv::Size(0, 0), params.blur_sigma, 0, cv::BORDER_REFLECT);
-  cv::max(small, 1.0, small);
-  cv::resize(small, low_f, in.size(), 0, 0, cv::INTER_LINEAR);
-  in.convertTo(in_f, CV_32F);
-  cv::divide(in_f, low_f, in_f, params.target_grey);
-  in_f.convertTo(out, CV_8U);
+namespace {
+
+/// Index of `p` in [0, n) under OpenCV's BORDER_REFLECT (fedcba|abcdefgh|hgfedcb), reflected
+/// again while outside, as cv::borderInterpolate.
+int reflectIndex(int p, int n) {
+  if (n == 1) return 0;
+  while (p < 0 || p >= n) p = p < 0 ? -p - 1 : 2 * n - p - 1;
+  return p;
 }
+
+}  // namespace
+
+void GaussianBlur32f::apply(cv::Mat& img, double sigma) {
+  CV_Assert(img.type() == CV_32FC1);
+  if (img.empty()) return;
+  if (sigma != sigma_) {
+    // cv::GaussianBlur's kernel for float images and ksize 0: side round(8 sigma + 1), odd;
+    // weights exp(-x^2 / (2 sigma^2)) normalised to sum 1.
+    const int side = cvRound(sigma * 4 * 2 + 1) | 1;
+    kernel_.resize(static_cast<std::size_t>(side));
+    double total = 0;
+    std::vector<double> w(kernel_.size());
+    for (int i = 0; i < side; ++i) {
+      const double x = i - (side - 1) * 0.5;
+      w[static_cast<std::size_t>(i)] = std::exp(-x * x / (2 * sigma * sigma));
+      total += w[static_cast<std::size_t>(i)];
+    }
+    for (std::size_t i = 0; i < w.size(); ++i) kernel_[i] = static_cast<float>(w[i] / total);
+    sigma_ = sigma;
+  }
+  const int w = img.cols, h = img.rows, side = static_cast<int>(kernel_.size()), r = side / 2;
+  const float* k = kernel_.data();
+  // Rows: each source row with its reflected border in `pad_`, then the kernel along it.
+  tmp_.create(h, w, CV_32FC1);
+  pad_.resize(static_cast<std::size_t>(w + 2 * r));
+  for (int y = 0; y < h; ++y) {
+    const float* s = img.ptr<float>(y);
+    for (int x = -r; x < w + r; ++x) pad_[static_cast<std::size_t>(x + r)] = s[reflectIndex(x, w)];
+    float* o = tmp_.ptr<float>(y);
+    for (int x = 0; x < w; ++x) {
+      const float* p = pad_.data() + x;
+      float acc = 0.f;
+      for (int i = 0; i < side; ++i) acc += p[i] * k[i];
+      o[x] = acc;
+    }
+  }
+  // Columns: each output row a weighted sum of the reflected rows of the row pass.
+  for (int y = 0; y < h; ++y) {
+    float* o = img.ptr<float>(y);
+    std::fill(o, o + w, 0.f);
+    for (int i = 0; i < side; ++i) {
+      const float* q = tmp_.ptr<float>(reflectIndex(y - r + i, h));
+      const float ki = k[i];
+      for (int x = 0; x < w; ++x) o[x] += q[x] * ki;
+    }
+  }
+}
+
+void normalizeIllumination(const cv::Mat& in, cv::Mat& out, const IlluminationParams& params) {
+  IlluminationScratch scratch;
+  normalizeIllumination(in, out, params, scratch);
+}
+
+namespace {
+
+/// cv::resize's INTER_LINEAR source index and weight along one axis for destination index
+/// `d` (centres aligned: (d + 0.5) scale - 0.5, clamped to the first and last sample).
+void linearTap(int d, double scale, int src_len, int& index, float& weight) {
+  float f = static_cast<float>((d + 0.5) * scale - 0.5);
+  int i = cvFloor(f);
+  f -= static_cast<float>(i);
+  if (i < 0) {
+    i = 0;
+    f = 0.f;
+  }
+  if (i >= src_len - 1) {
+    i = src_len - 1;
+    f = 0.f;
+  }
+  index = i;
+  weight = f;
+}
+
+}  // namespace
 
 void normalizeIllumination(const cv::Mat& in, cv::Mat& out, const IlluminationParams& params,
                            IlluminationScratch& scratch) {
-  // The steps of the version above, each into a buffer kept in `scratch`.
+  CV_Assert(in.type() == CV_8UC1);
+  if (in.empty()) {
+    out.create(in.size(), CV_8UC1);
+    return;
+  }
   const int s = std::max(2, params.scale);
-  cv::resize(in, scratch.small, cv::Size(std::max(1, in.cols / s), std::max(1, in.rows / s)), 0, 0, cv::INTER_AREA);
+  const int w = in.cols, h = in.rows;
+  const int sw = std::max(1, w / s), sh = std::max(1, h / s);
+  // 1. Area mean over s x s blocks. Where the image divides evenly this is cv::resize's
+  //    INTER_AREA integer-scale path, summed and rounded the same way (bit-identical); other
+  //    sizes take cv::resize itself.
   cv::Mat& small = scratch.small_f;
-  scratch.small.convertTo(small, CV_32F);
-  if (params.blur_sigma > 0) cv::GaussianBlur(small, small, cv::Size(0, 0), params.blur_sigma, 0, cv::BORDER_REFLECT);
-  cv::max(small, 1.0, small);
-  cv::resize(small, scratch.low_f, in.size(), 0, 0, cv::INTER_LINEAR);
-  in.convertTo(scratch.in_f, CV_32F);
-  cv::divide(scratch.in_f, scratch.low_f, scratch.in_f, params.target_grey);
-  scratch.in_f.convertTo(out, CV_8U);
+  if (sw * s == w && sh * s == h) {
+    small.create(sh, sw, CV_32FC1);
+    const float inv_area = 1.f / static_cast<float>(s * s);
+    scratch.block_sum.assign(static_cast<std::size_t>(sw), 0);
+    for (int by = 0; by < sh; ++by) {
+      std::fill(scratch.block_sum.begin(), scratch.block_sum.end(), 0);
+      for (int y = by * s; y < (by + 1) * s; ++y) {
+        const uint8_t* r = in.ptr<uint8_t>(y);
+        for (int bx = 0; bx < sw; ++bx) {
+          int acc = 0;
+          int x = bx * s;
+#if defined(__SSE2__)
+          // 16 bytes per step: psadbw against zero sums them into two 64-bit lanes.
+          for (; x + 16 <= (bx + 1) * s; x += 16) {
+            const __m128i sad =
+                _mm_sad_epu8(_mm_loadu_si128(reinterpret_cast<const __m128i*>(r + x)), _mm_setzero_si128());
+            acc += _mm_cvtsi128_si32(sad) + _mm_cvtsi128_si32(_mm_srli_si128(sad, 8));
+          }
+#endif
+          for (; x < (bx + 1) * s; ++x) acc += r[x];
+          scratch.block_sum[static_cast<std::size_t>(bx)] += acc;
+        }
+      }
+      float* o = small.ptr<float>(by);
+      for (int bx = 0; bx < sw; ++bx)
+        o[bx] = cv::saturate_cast<uint8_t>(static_cast<float>(scratch.block_sum[static_cast<std::size_t>(bx)]) * inv_area);
+    }
+  } else {
+    cv::resize(in, scratch.small, cv::Size(sw, sh), 0, 0, cv::INTER_AREA);
+    scratch.small.convertTo(small, CV_32F);
+  }
+  // 2. Our Gaussian, not cv::GaussianBlur: OpenCV builds its kernel and filter engine on every
+  //    call (about a dozen allocations per image); results agree to float rounding.
+  if (params.blur_sigma > 0) scratch.blur.apply(small, params.blur_sigma);
+  for (int y = 0; y < sh; ++y) {
+    float* r = small.ptr<float>(y);
+    for (int x = 0; x < sw; ++x) r[x] = std::max(r[x], 1.f);
+  }
+  // 3. Bilinear back to full size (cv::resize INTER_LINEAR's taps and order: along rows, then
+  //    between rows), fused with the division and the rounding to 8 bits, so the full-size
+  //    float images are never stored. Taps are remade only when the size changes.
+  if (scratch.taps_size != in.size() || scratch.taps_small != small.size()) {
+    scratch.x_index.resize(static_cast<std::size_t>(w));
+    scratch.x_weight.resize(static_cast<std::size_t>(w));
+    scratch.y_index.resize(static_cast<std::size_t>(h));
+    scratch.y_weight.resize(static_cast<std::size_t>(h));
+    // cv::resize's source step per destination pixel: 1 / (destination / source size).
+    const double scale_x = 1.0 / (static_cast<double>(w) / sw), scale_y = 1.0 / (static_cast<double>(h) / sh);
+    for (int x = 0; x < w; ++x)
+      linearTap(x, scale_x, sw, scratch.x_index[static_cast<std::size_t>(x)],
+                scratch.x_weight[static_cast<std::size_t>(x)]);
+    for (int y = 0; y < h; ++y)
+      linearTap(y, scale_y, sh, scratch.y_index[static_cast<std::size_t>(y)],
+                scratch.y_weight[static_cast<std::size_t>(y)]);
+    scratch.taps_size = in.size();
+    scratch.taps_small = small.size();
+  }
+  scratch.rows_f.create(sh, w, CV_32FC1);  // each low-pass row resampled to full width
+  for (int y = 0; y < sh; ++y) {
+    const float* r = small.ptr<float>(y);
+    float* o = scratch.rows_f.ptr<float>(y);
+    for (int x = 0; x < w; ++x) {
+      const int i = scratch.x_index[static_cast<std::size_t>(x)];
+      const float a = scratch.x_weight[static_cast<std::size_t>(x)];
+      o[x] = i + 1 < sw ? r[i] * (1.f - a) + r[i + 1] * a : r[i];
+    }
+  }
+  out.create(h, w, CV_8UC1);  // may be `in` itself: each pixel is read before it is written
+  const float target = static_cast<float>(params.target_grey);
+  for (int y = 0; y < h; ++y) {
+    const int j = scratch.y_index[static_cast<std::size_t>(y)];
+    const float b = scratch.y_weight[static_cast<std::size_t>(y)];
+    const float* r0 = scratch.rows_f.ptr<float>(j);
+    const float* r1 = scratch.rows_f.ptr<float>(std::min(j + 1, sh - 1));
+    const uint8_t* src = in.ptr<uint8_t>(y);
+    uint8_t* dst = out.ptr<uint8_t>(y);
+    const float b0 = 1.f - b;
+    int x = 0;
+#if defined(__SSE2__)
+    // Eight pixels per step, the scalar loop's float operations per lane; cvtps rounds to
+    // nearest even as cvRound does, and the two saturating packs clamp to [0, 255] as
+    // saturate_cast: identical bytes.
+    const __m128 vb0 = _mm_set1_ps(b0), vb = _mm_set1_ps(b), vt = _mm_set1_ps(target);
+    const __m128i zero = _mm_setzero_si128();
+    for (; x + 8 <= w; x += 8) {
+      const __m128 l0 = _mm_add_ps(_mm_mul_ps(_mm_loadu_ps(r0 + x), vb0), _mm_mul_ps(_mm_loadu_ps(r1 + x), vb));
+      const __m128 l1 =
+          _mm_add_ps(_mm_mul_ps(_mm_loadu_ps(r0 + x + 4), vb0), _mm_mul_ps(_mm_loadu_ps(r1 + x + 4), vb));
+      const __m128i p = _mm_unpacklo_epi8(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(src + x)), zero);
+      const __m128 s0 = _mm_cvtepi32_ps(_mm_unpacklo_epi16(p, zero));
+      const __m128 s1 = _mm_cvtepi32_ps(_mm_unpackhi_epi16(p, zero));
+      const __m128i q0 = _mm_cvtps_epi32(_mm_div_ps(_mm_mul_ps(s0, vt), l0));
+      const __m128i q1 = _mm_cvtps_epi32(_mm_div_ps(_mm_mul_ps(s1, vt), l1));
+      const __m128i q = _mm_packs_epi32(q0, q1);
+      _mm_storel_epi64(reinterpret_cast<__m128i*>(dst + x), _mm_packus_epi16(q, q));
+    }
+#endif
+    for (; x < w; ++x) {
+      const float low = r0[x] * b0 + r1[x] * b;
+      dst[x] = cv::saturate_cast<uint8_t>(static_cast<float>(src[x]) * target / low);
+    }
+  }
 }
 
 SnowFilter::SnowFilter(const SnowFilterParams& params) : params_(params) {
@@ -177,6 +358,11 @@ features::Features Frontend::detect(const cv::Mat& rectified, double threshold, 
   return extractor_.extract(rectified, threshold, surf);
 }
 
+void Frontend::detect(const cv::Mat& rectified, double threshold, features::SurfWorkspace& surf,
+                      features::Features& out) const {
+  extractor_.extract(rectified, threshold, surf, out);
+}
+
 matching::StereoFeatures Frontend::matchStereo(const features::Features& left, const features::Features& right) const {
   matching::StereoFeatures out;
   out.points = matching::matchStereo(left.keypoints, left.descriptors, right.keypoints, right.descriptors,
@@ -191,30 +377,12 @@ matching::StereoFeatures Frontend::matchStereo(const features::Features& left, c
   return out;
 }
 
-namespace {
-
-/// Makes `m` a rows x cols matrix of `type` for writing, keeping its allocation across frames:
-/// cv::Mat::resize changes the row count in place while the rows fit, and growth leaves
-/// headroom so a slowly rising count does not reallocate every frame. A buffer shared with
-/// another Mat header is never written into.
-void fitRows(cv::Mat& m, int rows, int cols, int type) {
-  const bool reusable = m.u != nullptr && m.u->refcount == 1 && m.dims == 2 && m.cols == cols && m.type() == type &&
-                        !m.isSubmatrix() && m.step[0] > 0;
-  const auto capacity = reusable ? static_cast<std::size_t>(m.datalimit - m.datastart) / m.step[0] : 0;
-  if (!reusable || static_cast<std::size_t>(rows) > capacity) {
-    m = cv::Mat(std::max(rows + rows / 2, 1), cols, type);
-  }
-  m.resize(static_cast<std::size_t>(rows));
-}
-
-}  // namespace
-
 void Frontend::matchStereo(const features::Features& left, const features::Features& right, FrontendWorkspace& ws,
                            matching::StereoFeatures& out) const {
   matching::matchStereo(left.keypoints, left.descriptors, right.keypoints, right.descriptors, rectifier_.rig(),
                         stereo_params_, ws.stereo, out.points);
   const int n = static_cast<int>(out.points.size());
-  fitRows(out.descriptors, n, left.descriptors.cols, left.descriptors.type());
+  features::fitRows(out.descriptors, n, left.descriptors.cols, left.descriptors.type());
   out.laplacian_sign.resize(out.points.size());
   for (std::size_t i = 0; i < out.points.size(); ++i) {
     const int l = out.points[i].left_index;
@@ -232,8 +400,8 @@ void Frontend::process(const StereoFrame& frame, double threshold, const NowNsFn
   StageTimer timer(now);
   rectify(frame, ws);
   f.times.rectify_ms = timer.lap_ms();
-  f.left = detect(ws.left_rect, threshold, ws.surf_left);
-  f.right = detect(ws.right_rect, threshold, ws.surf_right);
+  detect(ws.left_rect, threshold, ws.surf_left, f.left);
+  detect(ws.right_rect, threshold, ws.surf_right, f.right);
   f.times.features_ms = timer.lap_ms();
   matchStereo(f.left, f.right, ws, f.stereo);
   f.times.stereo_ms = timer.lap_ms();

@@ -41,12 +41,35 @@ struct IlluminationParams {
 /// Flat-field corrects `in` into `out` (both CV_8UC1).
 void normalizeIllumination(const cv::Mat& in, cv::Mat& out, const IlluminationParams& params);
 
-/// Buffers of normalizeIllumination kept across frames (the Gaussian's own kernel and filter
-/// are still built by cv::GaussianBlur on every call: OpenCV 4 exposes no reusable filter).
-struct IlluminationScratch {
-  cv::Mat small, small_f, low_f, in_f;
+/// Separable Gaussian blur of a CV_32FC1 image in place with a reflected border: the kernel
+/// cv::GaussianBlur(img, img, {0, 0}, sigma, 0, cv::BORDER_REFLECT) uses (side round(8 sigma
+/// + 1), odd), equal to it up to float rounding (the sums' order differs). The kernel (made
+/// when sigma changes) and row buffers are kept, so repeated calls allocate nothing; OpenCV 4
+/// builds its kernel and filter engine on every call and exposes no reusable one (issue 8).
+class GaussianBlur32f {
+ public:
+  void apply(cv::Mat& img, double sigma);
+
+ private:
+  double sigma_ = -1;
+  std::vector<float> kernel_;
+  std::vector<float> pad_;  ///< one source row with its reflected border
+  cv::Mat tmp_;             ///< the row pass
 };
-/// The same as above with the buffers of `scratch`: bit-identical output.
+
+/// Buffers of normalizeIllumination kept across frames.
+struct IlluminationScratch {
+  cv::Mat small;    ///< 8-bit area means (only for sizes not divisible by the scale)
+  cv::Mat small_f;  ///< the low-pass at reduced resolution (area mean, blurred, >= 1)
+  cv::Mat rows_f;   ///< its rows resampled to full width
+  GaussianBlur32f blur;
+  std::vector<int> block_sum;
+  cv::Size taps_size, taps_small;  ///< sizes the bilinear taps below were made for
+  std::vector<int> x_index, y_index;
+  std::vector<float> x_weight, y_weight;
+};
+/// The same as above with the buffers of `scratch` (the version above makes a fresh one):
+/// identical output.
 void normalizeIllumination(const cv::Mat& in, cv::Mat& out, const IlluminationParams& params,
                            IlluminationScratch& scratch);
 
@@ -119,6 +142,9 @@ class Frontend {
   features::Features detect(const cv::Mat& rectified, double threshold) const;
   /// The same with SURF's buffers in `surf` (one per thread calling at once).
   features::Features detect(const cv::Mat& rectified, double threshold, features::SurfWorkspace& surf) const;
+  /// The same into `out`, reusing its keypoint and descriptor buffers (issue 8).
+  void detect(const cv::Mat& rectified, double threshold, features::SurfWorkspace& surf,
+              features::Features& out) const;
   /// Stereo matching + triangulation of already detected features.
   matching::StereoFeatures matchStereo(const features::Features& left, const features::Features& right) const;
   /// The same into `out`, reusing its buffers (points, descriptor rows) and `ws`'s scratch.

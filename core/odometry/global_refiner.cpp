@@ -29,10 +29,23 @@ GlobalRefiner::GlobalRefiner(const camera::RectifiedRig& rig, const GlobalRefine
 
 GlobalCorrection GlobalRefiner::refine(const GlobalRequest& request, std::mt19937& rng) {
   StageTimer timer(now_);
-  GlobalCorrection c = correct(request.features, request.points_R0, request.frame_id, request.t_ns, request.T_W_R0,
+  // What the odometry has applied is no longer pending; what it has not is composed onto the
+  // request's pose (oldest first, as the odometry will apply it), so this frame is refined
+  // where it will be once those land, and its own correction is only the remainder.
+  if (request.last_applied_correction) {
+    while (!unapplied_.empty() && unapplied_.front().first <= *request.last_applied_correction)
+      unapplied_.pop_front();
+  }
+  Eigen::Isometry3d T_W_R0_in = request.T_W_R0;
+  for (const auto& [id, delta] : unapplied_) T_W_R0_in = delta * T_W_R0_in;
+  T_W_R0_in = orthonormalized(T_W_R0_in);
+  GlobalCorrection c = correct(request.features, request.points_R0, request.frame_id, request.t_ns, T_W_R0_in,
                                request.pose_covariance, rng);
   c.T_W_R0 = orthonormalized(c.T_W_R0);
+  const Eigen::Isometry3d increment = orthonormalized(c.T_W_R0 * T_W_R0_in.inverse());
+  c.increment_W = increment;
   c.correction_W = orthonormalized(c.T_W_R0 * request.T_W_R0.inverse());
+  if (c.changed()) unapplied_.emplace_back(request.frame_id, increment);
   // The re-observation keyframe remembers the position uncertainty the pose has once the
   // correction is in, as the inline path does.
   const double position_variance = c.covariance_scale * request.pose_covariance.bottomRightCorner<3, 3>().trace() +
@@ -51,8 +64,11 @@ GlobalCorrection GlobalRefiner::correct(const matching::StereoFeatures& features
   c.frame_id = frame_id;
   c.t_ns = t_ns;
   Eigen::Isometry3d T_W_R0 = T_W_R0_local;
-  const auto selected = map_.selectNear(T_W_R0.translation());
-  correctFromRevisit(features, selected, t_ns, pose_covariance, rng, T_W_R0, c);
+  auto selected = map_.selectNear(T_W_R0.translation());
+  // After a re-observation the frame may have moved by metres: ICP's model is the map
+  // around where the frame now is.
+  if (correctFromRevisit(features, selected, t_ns, pose_covariance, rng, T_W_R0, c))
+    selected = map_.selectNear(T_W_R0.translation());
   // Registering against frames just behind us only re-measures the motion the tensor
   // already measured better; the map bounds the drift when the survey comes back over
   // older ground (paper III-D), so ICP runs when the selection holds such frames.
@@ -134,34 +150,62 @@ bool GlobalRefiner::correctFromRevisit(const matching::StereoFeatures& current,
                                        const Matrix6d& pose_covariance, std::mt19937& rng, Eigen::Isometry3d& T_W_R0,
                                        GlobalCorrection& out) {
   const int64_t revisit_ns = static_cast<int64_t>(params_.min_revisit_age_s * 1e9);
-  const RevisitFrame* old = nullptr;
-  for (const map::MapFrame* f : selected) {  // nearest first
+  // Where to look for old ground: after kilometres of odometry the drift (paper III-D: the
+  // reason for the map) can exceed the selection radius, and the old keyframe under the
+  // vehicle is then not among the frames near the predicted position. The pose's position
+  // sigma bounds the drift since any older frame, so the search reaches that many sigmas.
+  const double selection_r = map_.params().selection_radius_m;
+  const double sigma = std::sqrt(std::max(pose_covariance.bottomRightCorner<3, 3>().trace(), 0.0));
+  const double radius = std::min(std::max(selection_r, params_.revisit_search_sigmas * sigma), params_.max_revisit_search_m);
+  std::vector<const map::MapFrame*> wide;
+  const std::vector<const map::MapFrame*>* pool = &selected;
+  if (radius > selection_r) {
+    wide = map_.selectWithin(T_W_R0.translation(), radius);
+    pool = &wide;
+  }
+  int tried = 0;
+  for (const map::MapFrame* f : *pool) {  // nearest first
+    if (tried >= std::max(params_.revisit_candidates, 1)) break;
     if (t_ns - f->t_ns < revisit_ns) continue;
     const auto it = revisit_frames_.find(f->id);
-    if (it != revisit_frames_.end()) {
-      old = &it->second;
-      break;
-    }
+    if (it == revisit_frames_.end()) continue;
+    ++tried;
+    if (reobserve(it->second, current, pose_covariance, rng, T_W_R0, out)) return true;
   }
-  if (old == nullptr) return false;
+  return false;
+}
+
+bool GlobalRefiner::reobserve(const RevisitFrame& old, const matching::StereoFeatures& current,
+                              const Matrix6d& pose_covariance, std::mt19937& rng, Eigen::Isometry3d& T_W_R0,
+                              GlobalCorrection& out) {
   matching::StereoFeatures old_features;
-  old_features.points = old->features.points;
-  old_features.laplacian_sign = old->features.laplacian_sign;
-  if (old->features.descriptors.type() == CV_8S && current.descriptors.type() == CV_32F) {
-    old->features.descriptors.convertTo(old_features.descriptors, CV_32F, 1.0 / 127.0);
-  } else if (old->features.descriptors.type() == current.descriptors.type()) {
-    old_features.descriptors = old->features.descriptors;
+  old_features.points = old.features.points;
+  old_features.laplacian_sign = old.features.laplacian_sign;
+  if (old.features.descriptors.type() == CV_8S && current.descriptors.type() == CV_32F) {
+    old.features.descriptors.convertTo(old_features.descriptors, CV_32F, 1.0 / 127.0);
+  } else if (old.features.descriptors.type() == current.descriptors.type()) {
+    old_features.descriptors = old.features.descriptors;
   } else {
     return false;
   }
+  if (old_features.points.empty()) return false;
   // The drift accumulated since the old frame sizes the search: the shared part of the two
   // poses' uncertainty cancels in their relative pose.
-  const double drift_var = std::max(pose_covariance.bottomRightCorner<3, 3>().trace() - old->position_variance_m2, 1e-4);
+  const double drift_var = std::max(pose_covariance.bottomRightCorner<3, 3>().trace() - old.position_variance_m2, 1e-4);
   Matrix6d cov = Matrix6d::Zero();
   cov.topLeftCorner<3, 3>() = pose_covariance.topLeftCorner<3, 3>() + Eigen::Matrix3d::Identity() * 1e-6;
   cov.bottomRightCorner<3, 3>() = Eigen::Matrix3d::Identity() * (drift_var / 3.0);
-  const Eigen::Isometry3d guess = old->T_W_R0.inverse() * T_W_R0;
-  const auto matches = matching::matchTemporal(old_features, current, rig_, guess, cov, params_.temporal);
+  const Eigen::Isometry3d guess = old.T_W_R0.inverse() * T_W_R0;
+  // A drift wider than the matcher's largest window (at the old frame's mean depth) cannot be
+  // searched around the prediction: match over the whole image and let RANSAC decide.
+  matching::TemporalMatchParams match_params = params_.temporal;
+  double mean_depth = 0;
+  for (const auto& p : old_features.points) mean_depth += p.p_R0.z();
+  mean_depth = std::max(mean_depth / static_cast<double>(old_features.points.size()), 0.1);
+  const double sigma_px = rig_.f_px * (std::sqrt(cov.topLeftCorner<3, 3>().trace()) + std::sqrt(drift_var) / mean_depth);
+  if (match_params.sigma_multiplier * sigma_px + match_params.min_window_px > match_params.max_window_px)
+    match_params.use_prediction = false;
+  const auto matches = matching::matchTemporal(old_features, current, rig_, guess, cov, match_params);
   if (static_cast<int>(matches.size()) < params_.revisit_min_inliers) return false;
   std::vector<geometry::QuadMatch> quads;
   quads.reserve(matches.size());
@@ -174,16 +218,20 @@ bool GlobalRefiner::correctFromRevisit(const matching::StereoFeatures& current,
   if (ransac.status != geometry::RansacStatus::kOk ||
       static_cast<int>(ransac.inliers.size()) < params_.revisit_min_inliers || !finitePose(ransac.T_prev_curr))
     return false;
-  const Eigen::Isometry3d measured = old->T_W_R0 * ransac.T_prev_curr;
+  const Eigen::Isometry3d measured = old.T_W_R0 * ransac.T_prev_curr;
   const Eigen::Isometry3d correction = T_W_R0.inverse() * measured;
-  if (correction.translation().norm() > params_.max_revisit_correction_m) return false;
+  // A jump back onto old ground larger than the drift could explain is a wrong match.
+  const double max_jump = std::max(params_.max_revisit_correction_m,
+                                   std::min(params_.revisit_search_sigmas * std::sqrt(drift_var),
+                                            params_.max_revisit_search_m));
+  if (correction.translation().norm() > max_jump) return false;
   // Blend by uncertainty: the re-observation carries the old pose's error plus its own
   // noise, the odometry the same old error plus the drift since.
   const double meas_var = std::max(Matrix6d(ransac.covariance).bottomRightCorner<3, 3>().trace(), 1e-8);
   const double w = drift_var / (drift_var + meas_var);
   T_W_R0 = orthonormalized(T_W_R0 * se3::expSE3(w * se3::logSE3(correction)));
   out.covariance_scale = 1.0 - w;
-  out.added_position_variance_m2 = w * old->position_variance_m2 / 3.0;
+  out.added_position_variance_m2 = w * old.position_variance_m2 / 3.0;
   out.revisit_used = true;
   ++revisit_corrections_;
   return true;

@@ -5,6 +5,8 @@
 /// the local odometry (the daemon's ICP thread, issue 8) or inline in `Odometry` (offline runs).
 /// Pure and single-threaded like the rest of core: whoever calls it owns the thread.
 #include <cstdint>
+#include <deque>
+#include <optional>
 #include <random>
 #include <span>
 #include <string_view>
@@ -35,7 +37,13 @@ struct GlobalRefinerParams {
   double revisit_keyframe_distance_m = 2.0;  ///< re-observation keyframe spacing [m]
   int revisit_max_points = 200;            ///< points kept per re-observation keyframe (8-bit)
   int revisit_min_inliers = 25;            ///< RANSAC inliers against the old frame to trust it
-  double max_revisit_correction_m = 1.5;   ///< larger jumps back onto old ground are refused [m]
+  double max_revisit_correction_m = 1.5;   ///< larger jumps back onto old ground are refused [m]...
+  /// ...unless the drift since the old frame (its sigma: the position covariance gained since)
+  /// allows more: up to this many sigmas. The same multiple sizes the re-observation search:
+  /// old keyframes within that radius of the predicted position are candidates.
+  double revisit_search_sigmas = 3.0;
+  double max_revisit_search_m = 25.0;      ///< cap on that radius and on the correction [m]
+  int revisit_candidates = 3;              ///< old keyframes tried per frame, nearest first
 };
 
 /// One frame handed to the global step, after the local odometry has estimated it.
@@ -56,6 +64,11 @@ struct GlobalRequest {
   /// The local result published for this frame, so a consumer can publish the refined pose
   /// (same seq) without going back to the estimator.
   OdometryResult local;
+  /// Deferred delivery: frame id of the last correction the odometry had applied when it
+  /// tracked this frame (none: no correction applied yet). Corrections the refiner issued
+  /// after that one are not yet in `T_W_R0`; refine() composes them in first, so a drift is
+  /// not corrected twice when frames are tracked before the first correction comes back.
+  std::optional<uint64_t> last_applied_correction;
 };
 
 /// Why the map did not move a frame.
@@ -76,6 +89,10 @@ struct GlobalCorrection {
   /// The correction as a delta in W: refined = correction_W * local. Composing it onto any
   /// later pose of the same chain moves that pose as the map moved this frame.
   Eigen::Isometry3d correction_W = Eigen::Isometry3d::Identity();
+  /// What the odometry still has to compose onto its state (Odometry::applyGlobalCorrection):
+  /// correction_W less the corrections of earlier frames that were issued but not yet
+  /// applied when this frame was tracked (they arrive first). Unset: all of correction_W.
+  std::optional<Eigen::Isometry3d> increment_W;
   /// Pose covariance update of a re-observation: P <- covariance_scale * P, then
   /// `added_position_variance_m2` on each position axis (paper III-D: the map bounds drift).
   double covariance_scale = 1.0;
@@ -102,6 +119,7 @@ class GlobalRefiner {
 
   /// Whole global step for one frame: re-observation, ICP against the map near the frame,
   /// then keyframe insertion at the refined pose. `rng` drives the re-observation RANSAC.
+  /// Requests must come in frame order; corrections must be applied in the order issued.
   GlobalCorrection refine(const GlobalRequest& request, std::mt19937& rng);
 
   /// Re-observation then ICP, without touching the map (the inline path inserts keyframes
@@ -140,6 +158,11 @@ class GlobalRefiner {
   bool correctFromRevisit(const matching::StereoFeatures& current, const std::vector<const map::MapFrame*>& selected,
                           int64_t t_ns, const Eigen::Matrix<double, 6, 6>& pose_covariance, std::mt19937& rng,
                           Eigen::Isometry3d& T_W_R0, GlobalCorrection& out);
+  /// Re-observation of one old keyframe: matching (pruned by the drift, or over the whole
+  /// image when the drift is wider than the matcher's window), RANSAC, blend. True if applied.
+  bool reobserve(const RevisitFrame& old, const matching::StereoFeatures& current,
+                 const Eigen::Matrix<double, 6, 6>& pose_covariance, std::mt19937& rng, Eigen::Isometry3d& T_W_R0,
+                 GlobalCorrection& out);
 
   camera::RectifiedRig rig_;
   GlobalRefinerParams params_;
@@ -149,6 +172,9 @@ class GlobalRefiner {
   std::unordered_map<uint64_t, RevisitFrame> revisit_frames_;  ///< by map keyframe id
   Eigen::Vector3d last_revisit_position_ = Eigen::Vector3d::Constant(1e300);
   int revisit_corrections_ = 0;
+  /// Corrections refine() issued that moved a frame, oldest first, until a request shows the
+  /// odometry has applied them (GlobalRequest::last_applied_correction).
+  std::deque<std::pair<uint64_t, Eigen::Isometry3d>> unapplied_;
 };
 
 }  // namespace seavio::odometry

@@ -21,6 +21,12 @@ Matrix6d relativeCovariance(const imu::Matrix9d& P) {
   return C;
 }
 
+/// A re-observation's covariance update (GlobalCorrection: scale, then position variance added).
+void shrinkCovariance(Matrix6d& P, double scale, double added_position_variance_m2) {
+  P *= scale;
+  P.bottomRightCorner<3, 3>() += Eigen::Matrix3d::Identity() * added_position_variance_m2;
+}
+
 /// Adds a relative-motion covariance expressed in frame `R_W_a` to an absolute one in W.
 void accumulate(Matrix6d& absolute, const Matrix6d& relative, const Eigen::Matrix3d& R_W_a) {
   Matrix6d J = Matrix6d::Zero();
@@ -44,6 +50,9 @@ GlobalRefinerParams globalRefinerParams(const OdometryParams& p) {
   g.revisit_max_points = p.revisit_max_points;
   g.revisit_min_inliers = p.revisit_min_inliers;
   g.max_revisit_correction_m = p.max_revisit_correction_m;
+  g.revisit_search_sigmas = p.revisit_search_sigmas;
+  g.max_revisit_search_m = p.max_revisit_search_m;
+  g.revisit_candidates = p.revisit_candidates;
   return g;
 }
 
@@ -93,6 +102,7 @@ void Odometry::makeGlobalRequest(const FrameFeatures& frame, const Eigen::Isomet
   // its buffers.
   q.features.descriptors = frame.stereo.descriptors.clone();
   q.local = r;
+  q.last_applied_correction = last_applied_correction_;
   if (params_.global_link) {
     params_.global_link->submit(std::move(q));
   } else {
@@ -101,16 +111,22 @@ void Odometry::makeGlobalRequest(const FrameFeatures& frame, const Eigen::Isomet
 }
 
 void Odometry::applyGlobalCorrection(const GlobalCorrection& c) {
-  if (!initialised_ || !finitePose(c.correction_W)) return;
+  // Only the part not already delivered by earlier corrections (GlobalCorrection::increment_W).
+  const Eigen::Isometry3d delta = c.increment_W ? *c.increment_W : c.correction_W;
+  if (!initialised_ || !finitePose(delta)) return;
+  last_applied_correction_ = c.frame_id;
   // The correction is a delta in W measured at an older frame; everything tracked since was
   // chained onto that frame's pose, so the same delta moves it too. A correction is not
   // motion: the velocity is only turned with the frame.
-  state_.T_W_B = orthonormalized(c.correction_W * state_.T_W_B);
-  state_.v_W = c.correction_W.linear() * state_.v_W;
-  if (previous_) previous_->T_W_R0 = orthonormalized(c.correction_W * previous_->T_W_R0);
+  state_.T_W_B = orthonormalized(delta * state_.T_W_B);
+  state_.v_W = delta.linear() * state_.v_W;
+  if (previous_) previous_->T_W_R0 = orthonormalized(delta * previous_->T_W_R0);
+  // The next frame is tracked against the keyframe: it moves with the chain, or that frame
+  // would be placed where the keyframe was before the correction and lose it.
+  if (keyframe_) keyframe_->T_W_R0 = orthonormalized(delta * keyframe_->T_W_R0);
   if (c.revisit_used) {
-    pose_covariance_ *= c.covariance_scale;
-    pose_covariance_.bottomRightCorner<3, 3>() += Eigen::Matrix3d::Identity() * c.added_position_variance_m2;
+    shrinkCovariance(pose_covariance_, c.covariance_scale, c.added_position_variance_m2);
+    if (keyframe_) shrinkCovariance(keyframe_->pose_covariance, c.covariance_scale, c.added_position_variance_m2);
     ++deferred_revisits_;
   }
 }
@@ -185,7 +201,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
         return p;
       }(), frame.stereo, pose_covariance_.bottomRightCorner<3, 3>().trace(), true);
     }
-    if (params_.keyframe_tracking && params_.mode == Mode::kLocal) newKeyframe(frame.stereo, T_W_R0, r.t_ns);
+    if (params_.keyframe_tracking) newKeyframe(frame.stereo, T_W_R0, r.t_ns);
     previous_ = PreviousFrame{std::move(frame), T_W_R0, r.t_ns};
     r.times.total_ms = r.times.rectify_ms + r.times.features_ms + r.times.stereo_ms + timer.total_ms();
     return r;
@@ -226,7 +242,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   while (imu_buffer_.size() > 2 && imu_buffer_[1].t_ns <= frame.t_ns) imu_buffer_.erase(imu_buffer_.begin());
 
   // --- III-C: inter-frame matching pruned by the prediction, against the reference frame:
-  // the keyframe (keyframe_tracking, local mode) or the previous frame. From here on
+  // the keyframe (keyframe_tracking) or the previous frame. From here on
   // "prev" in a name means that reference.
   const PreviousFrame& prev = *previous_;
   const matching::StereoFeatures* ref_features = &prev.features.stereo;
@@ -235,7 +251,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   Eigen::Matrix3d R_ref_curr_gyro = T_prev_curr_pred.rotation();  // the gyro alone since the reference
   Eigen::Matrix3d ref_gyro_cov = Eigen::Matrix3d::Zero();           // its noise before this interval
   double dt_ref_s = dt_s;
-  const bool kf_usable = keyframe_.has_value() && params_.keyframe_tracking && params_.mode == Mode::kLocal;
+  const bool kf_usable = keyframe_.has_value() && params_.keyframe_tracking;
   bool on_keyframe = kf_usable;
   if (on_keyframe) {
     ref_features = &keyframe_->features;
@@ -354,6 +370,10 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   // Global mode: how far the map moved the frame off its odometry. A correction is not
   // motion, so it stays out of the speed check and the velocity.
   Eigen::Vector3d map_shift_W = Eigen::Vector3d::Zero();
+  // Inline global step: the map's correction of this frame as a delta in W, and the
+  // re-observation's covariance update; both reach the keyframe once the frame is accepted.
+  std::optional<Eigen::Isometry3d> map_delta_W;
+  std::optional<GlobalCorrection> inline_revisit;
   if (vision_ok) {
     std::vector<std::pair<int, int>> seeds;
     seeds.reserve(ransac.inliers.size());
@@ -379,13 +399,11 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
           refiner_.correct(frame.stereo, data, frame.seq, frame.t_ns, T_W_R0, pose_covariance_, rng_);
       if (g.changed()) {
         map_shift_W = g.T_W_R0.translation() - T_W_R0.translation();
+        map_delta_W = g.T_W_R0 * T_W_R0.inverse();
         T_W_R0 = g.T_W_R0;
         T_prev_curr = prev.T_W_R0.inverse() * T_W_R0;
       }
-      if (g.revisit_used) {
-        pose_covariance_ *= g.covariance_scale;
-        pose_covariance_.bottomRightCorner<3, 3>() += Eigen::Matrix3d::Identity() * g.added_position_variance_m2;
-      }
+      if (g.revisit_used) inline_revisit = g;
       r.quality.model_points = g.model_points;
       r.quality.map_refined = g.changed();
       if (g.icp_ran) {
@@ -404,6 +422,9 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     vision_ok = false;  // a jump: refuse it rather than publish it
   }
 
+  // The state at the start of the interval, for the gravity tilt observation below.
+  const Eigen::Vector3d v_start_W = state_.v_W;
+  const Eigen::Matrix3d R_start_W_B = state_.T_W_B.rotation();
   if (vision_ok) {
     // Velocity: the visual displacement corrects the IMU's start velocity (III-A feeds III-C
     // and the visual pose feeds the next prediction).
@@ -417,6 +438,14 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
       state_.gyro_bias_rad_s -= params_.gyro_bias_gain * residual_B;
       gyro_bias_sigma_rad_s_ = std::max(params_.gyro_bias_sigma_at_rest_rad_s, gyro_bias_sigma_rad_s_ * 0.99);
     }
+    // Issue 9: this interval for the velocity handed over if vision is lost next (a fit over
+    // the last fixes, core/imu/coasting_handover.hpp); the state's own velocity is unchanged.
+    if (have_imu)
+      handover_.add({frame.t_ns, T_W_B.translation() - map_shift_W - state_.T_W_B.translation(),
+                     pred.state.v_W - state_.v_W,
+                     pred.state.T_W_B.translation() - state_.T_W_B.translation() - state_.v_W * dt_s});
+    else
+      handover_.reset();
     state_.T_W_B = T_W_B;
     state_.v_W = v;
     state_covariance_ = imu::Matrix9d::Zero();
@@ -424,6 +453,17 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     state_covariance_.block<3, 3>(3, 3) = Eigen::Matrix3d::Identity() * std::pow(params_.velocity_sigma_m_s, 2);
     if (on_keyframe) pose_covariance_ = keyframe_->pose_covariance;
     accumulate(pose_covariance_, rel_cov, T_W_ref.rotation());
+    // The keyframe this frame was tracked against moves with it (the same delta in W as
+    // applyGlobalCorrection composes), so the frames tracked against it next keep the map's
+    // correction instead of falling back to where the odometry alone put them; its
+    // uncertainty shrinks with the frame's when the map bounded the drift (III-D).
+    if (on_keyframe && map_delta_W) keyframe_->T_W_R0 = orthonormalized(*map_delta_W * keyframe_->T_W_R0);
+    if (inline_revisit) {
+      shrinkCovariance(pose_covariance_, inline_revisit->covariance_scale, inline_revisit->added_position_variance_m2);
+      if (on_keyframe)
+        shrinkCovariance(keyframe_->pose_covariance, inline_revisit->covariance_scale,
+                         inline_revisit->added_position_variance_m2);
+    }
     coasting_.stop();
     r.source = PoseSource::kVision;
   } else {
@@ -431,6 +471,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     const Eigen::Vector3d bg = state_.gyro_bias_rad_s, ba = state_.accel_bias_m_s2;
     const Eigen::Matrix3d prev_state_R = state_.T_W_B.rotation();
     const int64_t prev_state_t_ns = state_.t_ns;
+    const Eigen::Vector3d prev_state_v = state_.v_W;
     state_ = pred.state;
     state_.gyro_bias_rad_s = bg;
     state_.accel_bias_m_s2 = ba;
@@ -443,7 +484,34 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
         coast_start_pose_covariance_ = pose_covariance_;
         coasting_.start({params_.attitude_sigma_rad, params_.velocity_sigma_m_s, gyro_bias_sigma_rad_s_,
                          params_.accel_bias_sigma_m_s2});
+        // Issue 9: the velocity fitted over the last visual fixes replaces the last frame's
+        // (a whole frame's position residual over 0.1 s), with the uncertainty of that fit.
+        // Dead reckoning is linear in its start velocity, so this frame's prediction moves by
+        // the difference times dt.
+        const std::optional<imu::HandoverVelocity> hv =
+            params_.coasting_velocity_window_s > 0
+                ? handover_.velocity({params_.coasting_velocity_window_s, params_.coasting_velocity_min_fixes,
+                                      params_.coasting_acceleration_min_fixes})
+                : std::nullopt;
+        if (hv) {
+          const Eigen::Vector3d dv = hv->v_W - prev_state_v;
+          state_.T_W_B.translation() += dv * dt_s;
+          state_.v_W += dv;
+          const Eigen::Vector3d f_B = interval.empty()
+                                          ? Eigen::Vector3d(prev_state_R.transpose() * -imu::gravityW())
+                                          : Eigen::Vector3d(interval.front().accel_m_s2 - ba);
+          if (hv->has_acceleration)
+            coasting_.setMeasuredMotion(hv->covariance, hv->velocity_acceleration_covariance,
+                                        hv->acceleration_covariance, hv->acceleration_error, prev_state_R);
+          else
+            coasting_.setMeasuredVelocity(hv->covariance, hv->age_s, prev_state_R, f_B);
+        }
       }
+      // The acceleration the IMU missed before the loss, measured by the fit (mostly the
+      // visual tilt's error times g), is added to the dead reckoning over this interval.
+      const Eigen::Vector3d& da = coasting_.accelerationCorrection();
+      state_.T_W_B.translation() += 0.5 * da * dt_s * dt_s;
+      state_.v_W += da * dt_s;
       coasting_.propagate(prev_state_R, bg, ba, interval, prev_state_t_ns, frame.t_ns, imu_noise_);
       pose_covariance_ = coast_start_pose_covariance_ + coasting_.poseCovariance(state_.T_W_B.rotation());
     } else {
@@ -452,6 +520,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     T_W_B = state_.T_W_B;
     T_W_R0 = T_W_B * T_B_R0;
     r.source = PoseSource::kImuOnly;
+    handover_.reset();
   }
   // While the vehicle still holds still after start-up, every interval refines the gyro bias.
   if (still_start_ && have_imu) {
@@ -476,9 +545,38 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     state_.v_W.setZero();
     T_W_R0 = prev.T_W_R0;
     r.source = PoseSource::kImuOnly;
+    handover_.reset();
   }
   last_motion_ = prev.T_W_R0.inverse() * T_W_R0;
   last_dt_s_ = dt_s;
+  if (params_.gravity_tilt_time_constant_s > 0 && r.source == PoseSource::kVision && have_imu && dt_s > 1e-3 &&
+      !interval.empty()) {
+    // Gravity as the tilt reference (see gravity_tilt_time_constant_s): the mean specific
+    // force over the interval, turned into W at the interval's middle attitude, against the
+    // world acceleration vision measured (velocity change) minus gravity. Heading is not
+    // observed by gravity, so only the horizontal axes of the misalignment are corrected.
+    Eigen::Vector3d f_B = Eigen::Vector3d::Zero();
+    for (const ImuSample& s : interval) f_B += s.accel_m_s2;
+    f_B = f_B / static_cast<double>(interval.size()) - state_.accel_bias_m_s2;
+    const Eigen::Matrix3d R_mid =
+        R_start_W_B * se3::expSO3(0.5 * se3::logSO3(R_start_W_B.transpose() * state_.T_W_B.rotation()));
+    const Eigen::Vector3d a_W = (state_.v_W - v_start_W) / dt_s;
+    const Eigen::Vector3d measured = R_mid * f_B, expected = a_W - imu::gravityW();
+    if (measured.norm() > 1.0 && expected.norm() > 1.0) {
+      Eigen::Vector3d misalignment = measured.normalized().cross(expected.normalized());
+      misalignment.z() = 0;
+      const double gain = 1.0 - std::exp(-dt_s / params_.gravity_tilt_time_constant_s);
+      // The chain turns about the current position: the keyframe and the previous frame
+      // with it, so the next frame tracked against them carries the correction.
+      Eigen::Isometry3d D = Eigen::Isometry3d::Identity();
+      D.linear() = se3::expSO3(gain * misalignment);
+      D.translation() = state_.T_W_B.translation() - D.linear() * state_.T_W_B.translation();
+      state_.T_W_B = orthonormalized(D * state_.T_W_B);
+      state_.v_W = D.linear() * state_.v_W;
+      T_W_R0 = orthonormalized(D * T_W_R0);
+      if (keyframe_) keyframe_->T_W_R0 = orthonormalized(D * keyframe_->T_W_R0);
+    }
+  }
 
   r.T_W_B = state_.T_W_B;
   r.v_W = state_.v_W;

@@ -14,6 +14,7 @@
 #include "core/geometry/quadrifocal_ransac.hpp"
 #include "core/icp/icp.hpp"
 #include "core/imu/coasting_covariance.hpp"
+#include "core/imu/coasting_handover.hpp"
 #include "core/imu/imu_integrator.hpp"
 #include "core/map/frame_map.hpp"
 #include "core/odometry/frontend.hpp"
@@ -104,7 +105,22 @@ struct OdometryParams {
   /// The accelerometer bias is not estimated: while coasting its whole spread counts (the
   /// simulator's 0.02 m/s^2 initial sigma plus its random walk over a survey) [m/s^2].
   double accel_bias_sigma_m_s2 = 0.03;
+  /// Coasting hand-over (issue 9): the velocity coasting starts from is fitted over the visual
+  /// fixes of this last stretch [s] (at least `coasting_velocity_min_fixes` of them), with that
+  /// fit's covariance; 0: the last frame's velocity with `velocity_sigma_m_s`. From
+  /// `coasting_acceleration_min_fixes` fixes on (0: never) the fit also measures the
+  /// acceleration the IMU missed (tilt x g, accelerometer bias) and coasting corrects for it.
+  double coasting_velocity_window_s = 2.0;
+  int coasting_velocity_min_fixes = 4;
+  int coasting_acceleration_min_fixes = 10;
   double max_speed_m_s = 10.0;               ///< a visual fix faster than this is rejected as a jump
+  /// Gravity as the tilt reference: after each visual frame the roll and pitch of the chain
+  /// (pose, keyframe, previous frame) are turned towards the accelerometer's gravity, less the
+  /// acceleration vision measured, with this time constant [s]. Visual rotation errors add up
+  /// in roll and pitch over a long survey (1.5 m frames: 45 mrad by frame 400 on paper-plain)
+  /// and leak gravity into the IMU prediction. 0 = off (the default: on the 10 Hz short survey
+  /// it raised the error; docs/architecture.md, global section).
+  double gravity_tilt_time_constant_s = 0.0;
   double min_revisit_age_s = 30.0;           ///< global mode: map frames at least this old trigger ICP [s]
   double max_map_correction_m = 0.03;        ///< global mode: largest accepted ICP correction [m]
   double max_map_correction_rad = 0.005;     ///< ... and rotation [rad]
@@ -114,6 +130,12 @@ struct OdometryParams {
   int revisit_max_points = 200;              ///< ...for at most this many of its points (8-bit)
   int revisit_min_inliers = 25;              ///< RANSAC inliers against the old frame to trust it
   double max_revisit_correction_m = 1.5;     ///< larger jumps back onto old ground are refused [m]
+  /// A jump back onto old ground larger than max_revisit_correction_m is accepted when the
+  /// drift since the old frame allows it, up to this many sigmas; old keyframes within that
+  /// radius of the predicted position are the re-observation candidates...
+  double revisit_search_sigmas = 3.0;
+  double max_revisit_search_m = 25.0;        ///< ...capped at this radius and correction [m]
+  int revisit_candidates = 3;                ///< old keyframes tried per frame, nearest first
   uint32_t seed = 1;                         ///< RANSAC random stream
   GlobalDelivery global_delivery = GlobalDelivery::kInline;
   /// Deferred global step through this link: track() first applies every correction the
@@ -197,6 +219,8 @@ class Odometry {
   /// covariance of that fix; the published covariance is their sum while coasting.
   imu::CoastingCovariance coasting_;
   Eigen::Matrix<double, 6, 6> coast_start_pose_covariance_ = Eigen::Matrix<double, 6, 6>::Zero();
+  /// The visual fixes since vision last returned, for the velocity coasting starts from.
+  imu::CoastingHandover handover_;
   std::optional<PreviousFrame> previous_;
   /// What the next frame is tracked against (keyframe_tracking): a keyframe, its pose
   /// covariance, and the gyro's rotation from it to the previous frame.
@@ -228,6 +252,9 @@ class Odometry {
   TrackWork work_;
   std::optional<GlobalRequest> pending_request_;  ///< deferred mode, not yet taken
   int deferred_revisits_ = 0;  ///< re-observations among the corrections applied
+  /// Deferred mode: frame id of the last correction applied, sent with each request so the
+  /// refiner can return only what this odometry has not applied yet (no double correction).
+  std::optional<uint64_t> last_applied_correction_;
 };
 
 }  // namespace seavio::odometry

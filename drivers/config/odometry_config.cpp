@@ -209,6 +209,7 @@ void visit(V& v, odometry::OdometryParams& p) {
   v.value("gyro_bias_sigma_at_rest_rad_s", p.gyro_bias_sigma_at_rest_rad_s, 0, 1);
   v.value("gyro_bias_sigma_unknown_rad_s", p.gyro_bias_sigma_unknown_rad_s, 0, 1);
   v.value("max_speed_m_s", p.max_speed_m_s, 0.01, 1000);
+  v.value("gravity_tilt_time_constant_s", p.gravity_tilt_time_constant_s, 0, 1e6);
   v.value("min_revisit_age_s", p.min_revisit_age_s, 0, 1e9);
   v.value("max_map_correction_m", p.max_map_correction_m, 0, 1000);
   v.value("max_map_correction_rad", p.max_map_correction_rad, 0, 3.2);
@@ -216,6 +217,9 @@ void visit(V& v, odometry::OdometryParams& p) {
   v.value("revisit_max_points", p.revisit_max_points, 1, 100000);
   v.value("revisit_min_inliers", p.revisit_min_inliers, 3, 100000);
   v.value("max_revisit_correction_m", p.max_revisit_correction_m, 0, 1000);
+  v.value("revisit_search_sigmas", p.revisit_search_sigmas, 0, 100);
+  v.value("max_revisit_search_m", p.max_revisit_search_m, 0, 1000);
+  v.value("revisit_candidates", p.revisit_candidates, 1, 100);
   v.value("seed", p.seed, 0, 4294967295.0);
   v.flag("use_rotation_prior", p.use_rotation_prior);
   v.section("refinement", [&] {

@@ -19,6 +19,7 @@ class LcmBus {
  public:
   /// @param url LCM provider, e.g. "udpm://239.255.76.67:7667?ttl=0"; empty = LCM default.
   explicit LcmBus(const std::string& url);
+  ~LcmBus();
   LcmBus(const LcmBus&) = delete;
   LcmBus& operator=(const LcmBus&) = delete;
 
@@ -55,17 +56,14 @@ class LcmBus {
   /// in decodeFailures(). Handlers run inside handle() on the caller's thread.
   template <class Msg>
   void subscribe(const std::string& channel, std::function<void(const Msg&)> fn) {
-    auto h = std::make_unique<Handler>();
-    h->fn = [this, fn = std::move(fn)](const lcm::ReceiveBuffer* rbuf) {
+    subscribeRaw(channel, [this, fn = std::move(fn)](const lcm_recv_buf_t* rbuf) {
       Msg m{};
       if (!decodeLcm(m, static_cast<const uint8_t*>(rbuf->data), rbuf->data_size)) {
         decode_failures_.fetch_add(1, std::memory_order_relaxed);
         return;
       }
       fn(m);
-    };
-    lcm_->subscribe(channel, &Handler::onMessage, h.get());
-    handlers_.push_back(std::move(h));
+    });
   }
 
   /// Handles at most one incoming message. Returns 1 if one was handled, 0 on timeout,
@@ -76,11 +74,21 @@ class LcmBus {
   uint64_t decodeFailures() const { return decode_failures_.load(std::memory_order_relaxed); }
 
  private:
-  /// LCM 1.3 subscribes member functions only; one small object per subscription.
+  /// One subscription through LCM's C API. LCM 1.3's C++ member-function subscription
+  /// (lcm-cpp-impl.hpp:108) calls through a pointer cast from void* to its own polymorphic
+  /// wrapper class, which UBSan's vptr check reports in every receiver (docs/reliability.md,
+  /// "ASan whole suite"); the C callback has no such cast, and `self` is our own Handler.
   struct Handler {
-    std::function<void(const lcm::ReceiveBuffer*)> fn;
-    void onMessage(const lcm::ReceiveBuffer* rbuf, const std::string&) { fn(rbuf); }
+    std::function<void(const lcm_recv_buf_t*)> fn;
+    lcm_subscription_t* sub = nullptr;
+    static void onMessage(const lcm_recv_buf_t* rbuf, const char*, void* self) {
+      static_cast<Handler*>(self)->fn(rbuf);
+    }
   };
+
+  /// The one place that subscribes: registers `fn` for `channel` and keeps its Handler alive
+  /// until ~LcmBus unsubscribes it. Nothing is registered if the provider did not open.
+  void subscribeRaw(const std::string& channel, std::function<void(const lcm_recv_buf_t*)> fn);
 
   std::string url_;
   std::vector<std::unique_ptr<Handler>> handlers_;

@@ -112,30 +112,12 @@ int icpStage() {
   return 0;
 }
 
-int frame(std::size_t threads) {
-  constexpr int kFrames = 8;
-  const bench::SurveyClip c = bench::renderClip(kFrames);
-  std::string error;
-  auto rect = camera::StereoRectifier::create(c.calibration, &error);
-  if (!rect) {
-    std::fprintf(stderr, "hotpaths: calibration unusable: %s\n", error.c_str());
-    return 1;
-  }
-  odometry::OdometryParams p;
-  p.mode = odometry::Mode::kGlobal;
-  daemon::OdometryProcessor odo(odometry::Odometry(std::move(*rect), c.imu_noise, p), threads);
-  for (int k = 0; k + 1 < kFrames; ++k) odo.process(c.frames[k], c.imu[k]);
-  SEAVIO_CG_START();
-  const OdometryResult r = odo.process(c.frames[kFrames - 1], c.imu[kFrames - 1]);
-  SEAVIO_CG_STOP();
-  std::printf("frame: %d + %d features, %d stereo, %d RANSAC inliers\n", r.quality.features_left,
-              r.quality.features_right, r.quality.stereo_matches, r.quality.ransac_inliers);
-  return 0;
-}
-
-// Frames WARMUP .. WARMUP + FRAMES - 1 of the clip, each instrumented and dumped on its own.
-int steady(std::size_t threads, int warmup, int frames) {
-  const int total = warmup + frames;
+// Frames WARMUP .. WARMUP + FRAMES - 1 of a short-plain clip through daemon::OdometryProcessor
+// (global mode, `threads` 1: Odometry::process, 2: right image on the worker), only those
+// frames instrumented; with `dump_each`, one callgrind dump per frame (steady, steady2), else
+// one count for them all (frame, frame2: WARMUP 7, FRAMES 1).
+int frames(std::size_t threads, int warmup, int count, bool dump_each) {
+  const int total = warmup + count;
   const bench::SurveyClip c = bench::renderClip(total);
   std::string error;
   auto rect = camera::StereoRectifier::create(c.calibration, &error);
@@ -151,8 +133,10 @@ int steady(std::size_t threads, int warmup, int frames) {
     SEAVIO_CG_START();
     const OdometryResult r = odo.process(c.frames[k], c.imu[k]);
     SEAVIO_CG_STOP();
-    const std::string name = "frame " + std::to_string(k);
-    SEAVIO_CG_DUMP(name.c_str());
+    if (dump_each) {
+      const std::string name = "frame " + std::to_string(k);
+      SEAVIO_CG_DUMP(name.c_str());
+    }
     std::printf("frame %d: %d + %d features, %d stereo, %d RANSAC inliers\n", k, r.quality.features_left,
                 r.quality.features_right, r.quality.stereo_matches, r.quality.ransac_inliers);
   }
@@ -166,15 +150,15 @@ int main(int argc, char** argv) {
   const std::string stage = argc >= 2 ? argv[1] : "";
   if (stage == "steady" || stage == "steady2") {
     const int warmup = argc >= 3 ? std::max(2, std::atoi(argv[2])) : 8;
-    const int frames = argc >= 4 ? std::max(1, std::atoi(argv[3])) : 5;
-    return steady(stage == "steady" ? 1 : 2, warmup, frames);
+    const int count = argc >= 4 ? std::max(1, std::atoi(argv[3])) : 5;
+    return frames(stage == "steady" ? 1 : 2, warmup, count, true);
   }
   if (stage == "surf_detect") return surf(false);
   if (stage == "surf_describe") return surf(true);
   if (stage == "ransac") return ransac();
   if (stage == "icp") return icpStage();
-  if (stage == "frame") return frame(1);
-  if (stage == "frame2") return frame(2);
+  if (stage == "frame") return frames(1, 7, 1, false);
+  if (stage == "frame2") return frames(2, 7, 1, false);
   std::fprintf(stderr,
                "usage: hotpaths surf_detect|surf_describe|ransac|icp|frame|frame2|steady|steady2 [WARMUP [FRAMES]]\n");
   return 2;

@@ -34,6 +34,7 @@
 #include "drivers/lcm/lcm_bus.hpp"
 #include "drivers/lcm/lcm_convert.hpp"
 #include "seavio_lcm/pose_t.hpp"
+#include "tests/daemon/daemon_test_support.hpp"
 #include "tests/daemon/notify_listener.hpp"
 #include "tests/drivers/lcm/private_netns.hpp"
 
@@ -43,16 +44,7 @@ namespace seavio::daemon {
 namespace {
 
 using namespace std::chrono_literals;
-
-/// True when `pred` held within `timeout` (polled every 5 ms).
-bool waitFor(const std::function<bool()>& pred, std::chrono::milliseconds timeout) {
-  const auto until = std::chrono::steady_clock::now() + timeout;
-  while (std::chrono::steady_clock::now() < until) {
-    if (pred()) return true;
-    std::this_thread::sleep_for(5ms);
-  }
-  return pred();
-}
+using test::waitFor;
 
 /// Endless frames every `period`, stamped on the daemon's clock unless `stamp` rewrites the
 /// stamp of frame k; while `flowing` is false it only times out (a camera gone dark).
@@ -126,11 +118,7 @@ class RecordingProcessor : public FrameProcessor {
       std::lock_guard l(m_);
       calls_.push_back({f.t_ns, imu.size()});
     }
-    OdometryResult r;
-    r.t_ns = f.t_ns;
-    r.seq = f.seq;
-    r.source = PoseSource::kVision;
-    return r;
+    return test::visionResultFor(f);
   }
   std::string name() const override { return "recording"; }
   std::vector<Call> calls() const {

@@ -12,6 +12,7 @@
 #include "drivers/lcm/lcm_bus.hpp"
 #include "seavio_lcm/pose_t.hpp"
 #include "seavio_lcm/status_t.hpp"
+#include "tests/daemon/daemon_test_support.hpp"
 
 namespace seavio::daemon {
 namespace {
@@ -79,10 +80,7 @@ class DelayProcessor : public FrameProcessor {
   OdometryResult process(const StereoFrame& f, std::span<const ImuSample> imu) override {
     std::this_thread::sleep_for(delay_);
     if (fail_every_ > 0 && ++calls_ % fail_every_ == 0) throw std::runtime_error("synthetic failure");
-    OdometryResult r;
-    r.t_ns = f.t_ns;
-    r.seq = f.seq;
-    r.source = PoseSource::kVision;
+    OdometryResult r = test::visionResultFor(f);
     r.quality.features_left = static_cast<int>(imu.size());
     r.times.total_ms = static_cast<double>(delay_.count());
     r.times.features_ms = r.times.total_ms;
@@ -149,12 +147,7 @@ class Subscriber {
   }
   /// Waits up to `timeout` for `n` poses.
   bool waitPoses(std::size_t n, std::chrono::milliseconds timeout) const {
-    const auto until = std::chrono::steady_clock::now() + timeout;
-    while (std::chrono::steady_clock::now() < until) {
-      if (poses().size() >= n) return true;
-      std::this_thread::sleep_for(10ms);
-    }
-    return false;
+    return test::waitFor([&] { return poses().size() >= n; }, timeout, 10ms);
   }
 
  private:
@@ -175,11 +168,7 @@ DaemonConfig testConfig() {
   return c;
 }
 
-bool waitFinished(const Daemon& d, std::chrono::milliseconds timeout) {
-  const auto until = std::chrono::steady_clock::now() + timeout;
-  while (!d.finished() && std::chrono::steady_clock::now() < until) std::this_thread::sleep_for(10ms);
-  return d.finished();
-}
+using test::waitFinished;
 
 TEST(Daemon, EndToEndPosesAndStatusOnLcm) {
   // GIVEN 30 frames at 15 fps, a 200 Hz IMU, a 5 ms processor and a subscriber

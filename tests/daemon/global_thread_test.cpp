@@ -26,6 +26,7 @@
 #include "seavio_lcm/status_t.hpp"
 #include "tools/simulate/sequence_writer.hpp"
 #include "tools/simulate/sim_config.hpp"
+#include "tests/daemon/daemon_test_support.hpp"
 
 namespace seavio::daemon {
 namespace {
@@ -55,12 +56,7 @@ class PoseListener {
     return poses_;
   }
   bool waitPoses(std::size_t n, std::chrono::milliseconds timeout) const {
-    const auto until = std::chrono::steady_clock::now() + timeout;
-    while (std::chrono::steady_clock::now() < until) {
-      if (poses().size() >= n) return true;
-      std::this_thread::sleep_for(10ms);
-    }
-    return poses().size() >= n;
+    return test::waitFor([&] { return poses().size() >= n; }, timeout, 10ms);
   }
 
  private:
@@ -215,10 +211,7 @@ class SubmittingProcessor : public FrameProcessor {
   OdometryResult process(const StereoFrame& f, std::span<const ImuSample>) override {
     odometry::GlobalCorrection c;
     while (link_->poll(c)) ++corrections_;
-    OdometryResult r;
-    r.t_ns = f.t_ns;
-    r.seq = f.seq;
-    r.source = PoseSource::kVision;
+    const OdometryResult r = test::visionResultFor(f);
     odometry::GlobalRequest q;
     q.frame_id = f.seq;
     q.t_ns = f.t_ns;

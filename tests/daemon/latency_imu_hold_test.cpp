@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "daemon/daemon.hpp"
+#include "tests/daemon/daemon_test_support.hpp"
 
 namespace seavio::daemon {
 namespace {
@@ -94,11 +95,7 @@ class BatchRecorder : public FrameProcessor {
       std::lock_guard l(m);
       newest_minus_frame_ns.push_back(imu.empty() ? INT64_MIN : newest - f.t_ns);
     }
-    OdometryResult r;
-    r.t_ns = f.t_ns;
-    r.seq = f.seq;
-    r.source = PoseSource::kVision;
-    return r;
+    return test::visionResultFor(f);
   }
   std::string name() const override { return "batch-recorder"; }
   std::mutex m;
@@ -116,8 +113,7 @@ std::vector<int64_t> runWithHold(int hold_ms) {
   BatchRecorder* p = proc.get();
   Daemon d(c, std::make_unique<SensorClockCamera>(released), std::make_unique<LaggingImu>(released), std::move(proc));
   EXPECT_TRUE(d.start()) << d.error();
-  const auto until = std::chrono::steady_clock::now() + 20s;
-  while (!d.finished() && std::chrono::steady_clock::now() < until) std::this_thread::sleep_for(10ms);
+  test::waitFinished(d, 20s);
   d.stop();
   EXPECT_EQ(d.health().frames_processed.load(), static_cast<uint64_t>(kFrames)) << d.summary();
   std::lock_guard l(p->m);

@@ -24,6 +24,7 @@
 #include "daemon/daemon_config.hpp"
 #include "daemon/realtime.hpp"
 #include "daemon/worker_pool.hpp"
+#include "tests/daemon/daemon_test_support.hpp"
 
 namespace seavio::daemon {
 namespace {
@@ -200,11 +201,7 @@ class RecordingProcessor : public FrameProcessor {
     req.frame_id = f.seq;
     req.t_ns = f.t_ns;
     global_->submit(std::move(req));
-    OdometryResult r;
-    r.t_ns = f.t_ns;
-    r.seq = f.seq;
-    r.source = PoseSource::kVision;
-    return r;
+    return test::visionResultFor(f);
   }
   std::string name() const override { return "recording"; }
   bool runOnWorkerThreads(const std::function<void()>& fn) override { return pool_.runOnEachThread(fn); }
@@ -228,8 +225,7 @@ TEST(LatencyRealtime, DaemonDemotesTheIcpAndStatusThreadsAndReportsEveryThread) 
   RecordingProcessor* p = proc.get();
   Daemon d(c, std::make_unique<TinyCamera>(15), nullptr, std::move(proc), nullptr, global);
   ASSERT_TRUE(d.start()) << d.error();
-  const auto until = std::chrono::steady_clock::now() + 10s;
-  while (!d.finished() && std::chrono::steady_clock::now() < until) std::this_thread::sleep_for(10ms);
+  test::waitFinished(d, 10s);
   // Let the status thread run once after the frames.
   std::this_thread::sleep_for(150ms);
   d.stop();
@@ -269,8 +265,7 @@ TEST(LatencyRealtime, DaemonFramePathFifoWhenPermittedElseReportedAsRefused) {
   RecordingProcessor* p = proc.get();
   Daemon d(c, std::make_unique<TinyCamera>(5), nullptr, std::move(proc), nullptr, global);
   ASSERT_TRUE(d.start()) << d.error();
-  const auto until = std::chrono::steady_clock::now() + 10s;
-  while (!d.finished() && std::chrono::steady_clock::now() < until) std::this_thread::sleep_for(10ms);
+  test::waitFinished(d, 10s);
   d.stop();
   EXPECT_EQ(d.health().frames_processed.load(), 5u);
   const std::vector<std::string> rep = d.schedulingReport();

@@ -2,6 +2,8 @@
 
 #include <atomic>
 #include <chrono>
+#include <future>
+#include <optional>
 #include <set>
 #include <stdexcept>
 #include <thread>
@@ -99,6 +101,61 @@ TEST(WorkerPool, FullQueueIsRefusedNotBlocking) {
 TEST(WorkerPool, ZeroThreadsMeansOne) {
   WorkerPool pool(0);
   EXPECT_EQ(pool.threadCount(), 1u);
+}
+
+TEST(WorkerPool, RecurringJobRunsOnTheWorkerEachTimeItIsPosted) {
+  // GIVEN a job set once (the per-frame right-image detection posts one like it, issue 8)
+  WorkerPool pool(1, 1);
+  std::atomic<int> runs{0};
+  std::thread::id where;
+  RecurringJob job([&] {
+    where = std::this_thread::get_id();
+    if (++runs == 3) throw std::runtime_error("third");
+  });
+  for (int k = 1; k <= 5; ++k) {
+    // WHEN posted and waited for, again and again
+    ASSERT_TRUE(pool.post(job)) << k;
+    if (k == 3) {
+      // THEN the run's exception reaches the waiting caller, once
+      EXPECT_THROW(job.wait(), std::runtime_error);
+    } else {
+      job.wait();
+    }
+    // AND it ran exactly once per post, on the worker
+    EXPECT_EQ(runs.load(), k);
+    EXPECT_NE(where, std::this_thread::get_id());
+  }
+  job.wait();  // nothing in flight: returns at once, the exception was reported already
+  // AND submitted tasks still share the queue with it
+  auto f = pool.submit([&] { ++runs; });
+  ASSERT_TRUE(f);
+  EXPECT_EQ(f->wait_for(2s), std::future_status::ready);
+  EXPECT_EQ(runs.load(), 6);
+  // AND a stopped pool refuses it, so the caller runs it itself
+  pool.stop();
+  EXPECT_FALSE(pool.post(job));
+}
+
+TEST(WorkerPool, RecurringJobInFlightIsNotPostedTwice) {
+  WorkerPool pool(1, 4);
+  std::promise<void> gate;
+  auto gate_f = gate.get_future().share();
+  std::atomic<int> runs{0};
+  RecurringJob job([&] {
+    gate_f.wait_for(5s);
+    ++runs;
+  });
+  // GIVEN a posted run held on the worker
+  ASSERT_TRUE(pool.post(job));
+  // WHEN posted again before it finished, THEN it is refused (one run at a time)
+  EXPECT_FALSE(pool.post(job));
+  gate.set_value();
+  job.wait();
+  EXPECT_EQ(runs.load(), 1);
+  // AND once finished it can be posted again
+  ASSERT_TRUE(pool.post(job));
+  job.wait();
+  EXPECT_EQ(runs.load(), 2);
 }
 
 }  // namespace

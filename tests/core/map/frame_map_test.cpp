@@ -1,3 +1,6 @@
+#include <cmath>
+#include <limits>
+
 #include <gtest/gtest.h>
 
 #include "core/map/frame_map.hpp"
@@ -13,15 +16,20 @@ MapFrame frameAt(uint64_t id, double x, double y, int n_points = 10) {
   return f;
 }
 
+/// A lawnmower's two legs: a frame every 0.5 m for 50 m along x, at y = 0 and y = `leg2_y_m`.
+void insertTwoLegs(FrameMap& map, double leg2_y_m) {
+  uint64_t id = 0;
+  for (int i = 0; i < 100; ++i) map.insert(frameAt(id++, 0.5 * i, 0.0));
+  for (int i = 0; i < 100; ++i) map.insert(frameAt(id++, 0.5 * i, leg2_y_m));
+}
+
 TEST(FrameMap, SelectsFramesWithinTheRadiusNearestFirst) {
   // GIVEN a lawnmower of frames every 0.5 m on two legs 3 m apart
   FrameMapParams p;
   p.selection_radius_m = 2.0;
   p.max_selected_frames = 100;
   FrameMap map(p);
-  uint64_t id = 0;
-  for (int i = 0; i < 100; ++i) map.insert(frameAt(id++, 0.5 * i, 0.0));
-  for (int i = 0; i < 100; ++i) map.insert(frameAt(id++, 0.5 * i, 3.0));
+  insertTwoLegs(map, 3.0);
   // WHEN selecting near (10, 1.5)
   const auto sel = map.selectNear(Eigen::Vector3d(10.0, 1.5, 4.0));
   // THEN exactly the frames within 2 m are returned, nearest first
@@ -39,6 +47,33 @@ TEST(FrameMap, SelectsFramesWithinTheRadiusNearestFirst) {
   bool leg0 = false, leg1 = false;
   for (const auto* f : sel) (f->T_W_R0.translation().y() < 1 ? leg0 : leg1) = true;
   EXPECT_TRUE(leg0 && leg1);
+}
+
+TEST(FrameMap, SelectsWithinAnyRadiusUncappedNearestFirst) {
+  // GIVEN two 50 m lanes 12 m apart, a frame every 0.5 m, cells of 2.5 m, a cap of 12
+  FrameMapParams p;
+  p.selection_radius_m = 2.5;
+  p.max_selected_frames = 12;
+  FrameMap map(p);
+  insertTwoLegs(map, 12.0);
+  const Eigen::Vector3d q(20.0, 7.0, 4.0);
+  // WHEN the re-observation search asks for a radius of several cells (grid walk), and for
+  // one wider than the mission (every frame tested)
+  for (const double radius : {8.0, 200.0}) {
+    const auto sel = map.selectWithin(q, radius);
+    // THEN every frame within the radius comes back, beyond the selection cap, nearest first
+    int expected = 0;
+    for (int leg = 0; leg < 2; ++leg)
+      for (int i = 0; i < 100; ++i) expected += std::hypot(0.5 * i - 20.0, (leg ? 12.0 : 0.0) - 7.0) <= radius;
+    ASSERT_EQ(static_cast<int>(sel.size()), expected) << "radius " << radius;
+    EXPECT_GT(sel.size(), 12u);
+    for (std::size_t i = 1; i < sel.size(); ++i)
+      EXPECT_LE((sel[i - 1]->T_W_R0.translation() - q).norm(), (sel[i]->T_W_R0.translation() - q).norm() + 1e-12);
+    // the far lane (5 m away) is found, which the 2.5 m selection cannot reach
+    EXPECT_GT(sel.front()->T_W_R0.translation().y(), 6.0);
+  }
+  EXPECT_TRUE(map.selectNear(q).empty());
+  EXPECT_TRUE(map.selectWithin(q, std::numeric_limits<double>::quiet_NaN()).empty());
 }
 
 TEST(FrameMap, CapsTheSelectionAndTheStoredPoints) {

@@ -14,6 +14,29 @@
 
 namespace seavio::odometry::test {
 
+/// A flat synthetic seafloor: points in W and one random unit 64-float descriptor per point.
+struct SyntheticFloor {
+  std::vector<Eigen::Vector3d> points_W;
+  cv::Mat descriptors;  ///< one CV_32F row per point
+};
+
+/// `n` points uniform over x in [x_min, x_max], y in [-half_width, half_width] at height
+/// `z` [m], drawn from `rng` point by point (x, y, then the 64 descriptor values).
+inline SyntheticFloor randomFloor(std::mt19937& rng, int n, double x_min, double x_max, double half_width,
+                                  double z) {
+  std::uniform_real_distribution<double> ux(x_min, x_max), uy(-half_width, half_width);
+  std::normal_distribution<float> gauss(0.f, 1.f);
+  SyntheticFloor f;
+  f.points_W.resize(static_cast<std::size_t>(n));
+  f.descriptors.create(n, 64, CV_32F);
+  for (int i = 0; i < n; ++i) {
+    f.points_W[static_cast<std::size_t>(i)] = Eigen::Vector3d(ux(rng), uy(rng), z);
+    for (int d = 0; d < 64; ++d) f.descriptors.at<float>(i, d) = gauss(rng);
+    cv::normalize(f.descriptors.row(i), f.descriptors.row(i));
+  }
+  return f;
+}
+
 /// @param world_W floor points in W; @param world_desc one 64-float descriptor row per point
 /// @param pix pixel noise [px], drawn from `rng` in point order (u_left, v_left, u_right)
 inline FrameFeatures floorFrame(const camera::RectifiedRig& rig, const std::vector<Eigen::Vector3d>& world_W,

@@ -35,17 +35,8 @@ BiasRun fly(const Eigen::Vector3d& bias, bool per_keyframe) {
   Odometry odo(std::move(*rectifier), imu::ImuNoise{}, params);
 
   std::mt19937 rng(11);
-  std::uniform_real_distribution<double> ux(-3.0, 16.0), uy(-3.0, 3.0);
-  std::normal_distribution<float> gauss(0.f, 1.f);
   std::normal_distribution<double> pix(0.0, 0.1);
-  const int n_world = 3000;
-  std::vector<Eigen::Vector3d> world(n_world);
-  cv::Mat world_desc(n_world, 64, CV_32F);
-  for (int i = 0; i < n_world; ++i) {
-    world[i] = Eigen::Vector3d(ux(rng), uy(rng), -4.0);
-    for (int d = 0; d < 64; ++d) world_desc.at<float>(i, d) = gauss(rng);
-    cv::normalize(world_desc.row(i), world_desc.row(i));
-  }
+  const test::SyntheticFloor floor = test::randomFloor(rng, 3000, -3.0, 16.0, 3.0, -4.0);
   const auto pose = [](double t) {
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
     T.translation() = Eigen::Vector3d(kSpeed * t, 0, 0);
@@ -67,7 +58,7 @@ BiasRun fly(const Eigen::Vector3d& bias, bool per_keyframe) {
       s.accel_m_s2 = -imu::gravityW();  // level, constant velocity
       imu.push_back(s);
     }
-    FrameFeatures ff = test::floorFrame(rig, world, world_desc, pose(t), static_cast<uint64_t>(f), t_ns, pix, rng);
+    FrameFeatures ff = test::floorFrame(rig, floor.points_W, floor.descriptors, pose(t), static_cast<uint64_t>(f), t_ns, pix, rng);
     EXPECT_GT(ff.stereo.points.size(), 100u);
     const OdometryResult r = odo.track(std::move(ff), imu);
     out.vision_frames += r.source == PoseSource::kVision;

@@ -41,17 +41,8 @@ TEST(OdometryPoseChain, WorldRotationStaysOrthonormalAndStepsKeepTheirLength) {
 
   // Seafloor points 4 m below, each with its own random unit descriptor.
   std::mt19937 rng(7);
-  std::uniform_real_distribution<double> ux(-3.0, 9.0), uy(-3.0, 3.0);
-  std::normal_distribution<float> gauss(0.f, 1.f);
   std::normal_distribution<double> pix(0.0, 0.1);
-  const int n_world = 1500;
-  std::vector<Eigen::Vector3d> world(n_world);
-  cv::Mat world_desc(n_world, 64, CV_32F);
-  for (int i = 0; i < n_world; ++i) {
-    world[i] = Eigen::Vector3d(ux(rng), uy(rng), -4.0);
-    for (int d = 0; d < 64; ++d) world_desc.at<float>(i, d) = gauss(rng);
-    cv::normalize(world_desc.row(i), world_desc.row(i));
-  }
+  const test::SyntheticFloor floor = test::randomFloor(rng, 1500, -3.0, 9.0, 3.0, -4.0);
 
   const double frame_dt = 0.1;
   const int frames = 70;
@@ -72,7 +63,7 @@ TEST(OdometryPoseChain, WorldRotationStaysOrthonormalAndStepsKeepTheirLength) {
       imu.push_back(s);
     }
     // Stereo features of the visible floor points.
-    FrameFeatures ff = test::floorFrame(rig, world, world_desc, bodyPose(t), static_cast<uint64_t>(f), t_ns, pix, rng);
+    FrameFeatures ff = test::floorFrame(rig, floor.points_W, floor.descriptors, bodyPose(t), static_cast<uint64_t>(f), t_ns, pix, rng);
     ASSERT_GT(ff.stereo.points.size(), 100u);
     const OdometryResult r = odo.track(std::move(ff), imu);
     const Eigen::JacobiSVD<Eigen::Matrix3d> svd(r.T_W_B.linear());

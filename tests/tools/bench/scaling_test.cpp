@@ -253,6 +253,17 @@ TEST(BenchScaling, TinySweepAndPaperBenchOnRenderedData) {
     EXPECT_GT(row.cpu_ms.median, 0.0);
     EXPECT_GE(row.wall_ms.median, 0.9 * row.cpu_ms.median);
   }
+  // AND with --sweep-frames 0 it only re-fits and re-plots the survey CSV (no sweep run)
+  s.sweep_frames = 0;
+  s.out_dir = (dir / "replot").string();
+  const ScalingResult replot = runScalingBench(s);
+  EXPECT_TRUE(replot.sweep.empty());
+  EXPECT_EQ(replot.cpu_vs_km.slope, r.cpu_vs_km.slope);
+  EXPECT_TRUE(fs::exists(replot.frames_png));
+  EXPECT_FALSE(fs::exists(dir / "replot" / "scaling-features.csv"));
+  std::ostringstream os2;
+  printScaling(os2, replot);
+  EXPECT_NE(os2.str().find("no feature-count sweep"), std::string::npos);
   fs::remove_all(dir);
 }
 

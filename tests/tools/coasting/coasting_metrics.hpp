@@ -28,8 +28,17 @@ struct CoastFigures {
   std::vector<double> sigma_added_m;
   double error_end_m = 0;     ///< at the last frame inside the stretch
   double recovery_s = -1;     ///< stretch end to the first visual pose after it (-1: none)
+  /// At that first visual pose: its position change from the frame before it minus the true
+  /// change [m]; a jump at recovery would show here (-1: no recovery).
+  double recovery_jump_m = -1;
   double error_after_m = 0;   ///< accumulated error `after_s` after the stretch ended
   double distance_m = 0;      ///< ground-truth distance travelled inside the stretch
+  /// |velocity - true velocity| at the last frame before the stretch: what coasting starts
+  /// from [m/s] (ground truth without velocity: 0).
+  double handover_velocity_error_m_s = 0;
+  /// Tilt error at that frame: angle between the estimated and the true vertical in the body
+  /// axes [rad]; a tilt error turns gravity into a horizontal acceleration while coasting.
+  double handover_tilt_error_rad = 0;
 };
 
 /// Ground truth at the sample nearest `t_ns`.
@@ -71,6 +80,10 @@ inline CoastFigures coastFigures(const drivers::Dataset& ds, const std::vector<O
     return (est - truth).norm();
   };
   f.sigma_start_m = positionSigma(r0);
+  if (const auto& g = nearestTruth(ds, r0.t_ns); g.has_velocity) f.handover_velocity_error_m_s = (r0.v_W - g.v_W).norm();
+  const Eigen::Vector3d up_est = r0.T_W_B.rotation().transpose() * Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d up_true = gt0.rotation().transpose() * Eigen::Vector3d::UnitZ();
+  f.handover_tilt_error_rad = std::atan2(up_est.cross(up_true).norm(), up_est.dot(up_true));
   double prev_var = f.sigma_start_m * f.sigma_start_m;
   std::size_t next_at = 0;
   Eigen::Vector3d prev_gt = gt0.translation();
@@ -96,7 +109,14 @@ inline CoastFigures coastFigures(const drivers::Dataset& ds, const std::vector<O
       }
       continue;
     }
-    if (f.recovery_s < 0 && r.source == PoseSource::kVision) f.recovery_s = static_cast<double>(r.t_ns - to_ns) * 1e-9;
+    if (f.recovery_s < 0 && r.source == PoseSource::kVision) {
+      f.recovery_s = static_cast<double>(r.t_ns - to_ns) * 1e-9;
+      const OdometryResult& before = results[i - 1];
+      const Eigen::Vector3d est = r.T_W_B.translation() - before.T_W_B.translation();
+      const Eigen::Vector3d truth =
+          nearestTruth(ds, r.t_ns).T_W_B.translation() - nearestTruth(ds, before.t_ns).T_W_B.translation();
+      f.recovery_jump_m = (est - truth).norm();
+    }
     if (r.t_ns <= after_ns) f.error_after_m = error(r);
   }
   return f;
