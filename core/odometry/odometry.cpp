@@ -74,7 +74,13 @@ Odometry::Odometry(camera::StereoRectifier rectifier, const imu::ImuNoise& imu_n
       refiner_(frontend_.rig(), globalRefinerParams(params)),
       deferred_(params.mode == Mode::kGlobal &&
                 (params.global_delivery == GlobalDelivery::kDeferred || params.global_link != nullptr)),
-      rng_(params.seed) {}
+      rng_(params.seed),
+      accel_bias_([&] {
+        imu::AccelBiasParams a = params.accel_bias;
+        a.bias_random_walk_m_s2_sqrt_s = imu_noise.accelerometer_random_walk;
+        a.accel_noise_density = imu_noise.accelerometer_noise_density;
+        return a;
+      }()) {}
 
 GlobalRefiner Odometry::makeGlobalRefiner(NowNsFn now) const {
   return GlobalRefiner(frontend_.rig(), globalRefinerParams(params_), std::move(now));
@@ -124,6 +130,8 @@ void Odometry::applyGlobalCorrection(const GlobalCorrection& c) {
   // The next frame is tracked against the keyframe: it moves with the chain, or that frame
   // would be placed where the keyframe was before the correction and lose it.
   if (keyframe_) keyframe_->T_W_R0 = orthonormalized(delta * keyframe_->T_W_R0);
+  // The velocity was turned mid-window: the accelerometer-bias window starts again.
+  accel_bias_.breakWindow();
   if (c.revisit_used) {
     shrinkCovariance(pose_covariance_, c.covariance_scale, c.added_position_variance_m2);
     if (keyframe_) shrinkCovariance(keyframe_->pose_covariance, c.covariance_scale, c.added_position_variance_m2);
@@ -157,6 +165,8 @@ void Odometry::initialise(const FrameFeatures& frame, std::span<const ImuSample>
   state_covariance_.block<3, 3>(3, 3) =
       Eigen::Matrix3d::Identity() * params_.initial_velocity_sigma_m_s * params_.initial_velocity_sigma_m_s;
   pose_covariance_ = Matrix6d::Identity() * 1e-12;
+  accel_bias_.reset(state_.T_W_B.rotation(), imu::attitudeFromAccelerometer(recent, 0.2).has_value(),
+                    params_.attitude_sigma_rad);
   initialised_ = true;
 }
 
@@ -425,6 +435,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   // The state at the start of the interval, for the gravity tilt observation below.
   const Eigen::Vector3d v_start_W = state_.v_W;
   const Eigen::Matrix3d R_start_W_B = state_.T_W_B.rotation();
+  const int64_t t_start_ns = state_.t_ns;
   if (vision_ok) {
     // Velocity: the visual displacement corrects the IMU's start velocity (III-A feeds III-C
     // and the visual pose feeds the next prediction).
@@ -549,8 +560,31 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   }
   last_motion_ = prev.T_W_R0.inverse() * T_W_R0;
   last_dt_s_ = dt_s;
-  if (params_.gravity_tilt_time_constant_s > 0 && r.source == PoseSource::kVision && have_imu && dt_s > 1e-3 &&
-      !interval.empty()) {
+  if (params_.accel_bias_estimation && have_imu) {
+    // Accelerometer bias and tilt (accel_bias_estimation, core/imu/accel_bias_estimator.hpp):
+    // this interval into the window; a fix that ends a long enough window updates the filter,
+    // which turns the chain's roll/pitch (about the current position, keyframe and previous
+    // frame with it, as a map correction does) and sets the bias the next prediction uses.
+    // Coasting, or a map correction that moved the frame, interrupts the velocity chain.
+    const bool fix = r.source == PoseSource::kVision && !map_delta_W && !inline_revisit;
+    if (!fix) accel_bias_.breakWindow();
+    accel_bias_.addInterval(R_start_W_B, state_.gyro_bias_rad_s, interval, t_start_ns, frame.t_ns);
+    if (fix) {
+      if (accel_bias_.close(state_.v_W) == imu::AccelBiasEstimator::Outcome::kUpdated) {
+        Eigen::Isometry3d D = Eigen::Isometry3d::Identity();
+        D.linear() = se3::expSO3(accel_bias_.tiltCorrection());
+        D.translation() = state_.T_W_B.translation() - D.linear() * state_.T_W_B.translation();
+        state_.T_W_B = orthonormalized(D * state_.T_W_B);
+        state_.v_W = D.linear() * state_.v_W;
+        T_W_R0 = orthonormalized(D * T_W_R0);
+        if (keyframe_) keyframe_->T_W_R0 = orthonormalized(D * keyframe_->T_W_R0);
+      }
+      if (!accel_bias_.windowOpen()) accel_bias_.startWindow(state_.v_W);
+    }
+    state_.accel_bias_m_s2 = accel_bias_.bias();
+  }
+  if (params_.gravity_tilt_time_constant_s > 0 && !params_.accel_bias_estimation && r.source == PoseSource::kVision &&
+      have_imu && dt_s > 1e-3 && !interval.empty()) {
     // Gravity as the tilt reference (see gravity_tilt_time_constant_s): the mean specific
     // force over the interval, turned into W at the interval's middle attitude, against the
     // world acceleration vision measured (velocity change) minus gravity. Heading is not

@@ -13,6 +13,7 @@
 #include "core/features/feature_count_controller.hpp"
 #include "core/geometry/quadrifocal_ransac.hpp"
 #include "core/icp/icp.hpp"
+#include "core/imu/accel_bias_estimator.hpp"
 #include "core/imu/coasting_covariance.hpp"
 #include "core/imu/coasting_handover.hpp"
 #include "core/imu/imu_integrator.hpp"
@@ -121,6 +122,15 @@ struct OdometryParams {
   /// and leak gravity into the IMU prediction. 0 = off (the default: on the 10 Hz short survey
   /// it raised the error; docs/architecture.md, global section).
   double gravity_tilt_time_constant_s = 0.0;
+  /// Accelerometer bias and roll/pitch held to gravity together (issue 5,
+  /// core/imu/accel_bias_estimator.hpp): a Kalman filter on the disagreement between the
+  /// IMU's specific force and the velocity change vision measured, over windows of
+  /// `accel_bias.window_s`; the 180 deg turns separate the bias (fixed in the body) from the
+  /// chain's tilt (fixed in W). Each update turns the chain's roll/pitch and sets the bias the
+  /// dead reckoning subtracts. Replaces gravity_tilt_time_constant_s when on. The random walk
+  /// and white noise of the bias come from the IMU's noise model, not from these params.
+  bool accel_bias_estimation = false;
+  imu::AccelBiasParams accel_bias;
   double min_revisit_age_s = 30.0;           ///< global mode: map frames at least this old trigger ICP [s]
   double max_map_correction_m = 0.03;        ///< global mode: largest accepted ICP correction [m]
   double max_map_correction_rad = 0.005;     ///< ... and rotation [rad]
@@ -221,6 +231,8 @@ class Odometry {
   Eigen::Matrix<double, 6, 6> coast_start_pose_covariance_ = Eigen::Matrix<double, 6, 6>::Zero();
   /// The visual fixes since vision last returned, for the velocity coasting starts from.
   imu::CoastingHandover handover_;
+  /// Accelerometer bias and tilt (accel_bias_estimation).
+  imu::AccelBiasEstimator accel_bias_;
   std::optional<PreviousFrame> previous_;
   /// What the next frame is tracked against (keyframe_tracking): a keyframe, its pose
   /// covariance, and the gyro's rotation from it to the previous frame.

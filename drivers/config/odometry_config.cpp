@@ -210,6 +210,14 @@ void visit(V& v, odometry::OdometryParams& p) {
   v.value("gyro_bias_sigma_unknown_rad_s", p.gyro_bias_sigma_unknown_rad_s, 0, 1);
   v.value("max_speed_m_s", p.max_speed_m_s, 0.01, 1000);
   v.value("gravity_tilt_time_constant_s", p.gravity_tilt_time_constant_s, 0, 1e6);
+  v.section("accel_bias", [&] {
+    v.flag("enabled", p.accel_bias_estimation);
+    v.value("initial_bias_sigma_m_s2", p.accel_bias.initial_bias_sigma_m_s2, 1e-6, 100);
+    v.value("tilt_random_walk_rad_sqrt_s", p.accel_bias.tilt_random_walk_rad_sqrt_s, 0, 1);
+    v.value("velocity_sigma_m_s", p.accel_bias.velocity_sigma_m_s, 1e-6, 100);
+    v.value("window_s", p.accel_bias.window_s, 0, 1000);
+    v.value("gate_sigmas", p.accel_bias.gate_sigmas, 0.1, 1000);
+  });
   v.value("min_revisit_age_s", p.min_revisit_age_s, 0, 1e9);
   v.value("max_map_correction_m", p.max_map_correction_m, 0, 1000);
   v.value("max_map_correction_rad", p.max_map_correction_rad, 0, 3.2);
