@@ -4,15 +4,23 @@
 # running seaviod for N minutes, while lcm-logger records its poses and status. The daemon's
 # RSS is sampled every 10 s. At the end: RSS start/end/slope per hour, and latency p50/p99
 # of the first and last 5 minutes (`seavio profile --from-s/--to-s` on the recorded log).
+# It ends with a verdict, one PASS/FAIL line per limit (issue 9): RSS slope under 5 MB/h,
+# no leak reported (and, with --lsan, a planted leak caught by the same preload), no frame
+# dropped or lost, latency p99 of the last 5 minutes under 1.2 x that of the first; plus
+# the issue 8 goal (p99 <= 33 ms) in both windows. Exit status 1 if any line fails.
 #
 # Everything runs in a private network namespace (unshare -rn), so multicast stays on that
 # namespace's loopback and parallel runs do not collide.
 #
-# usage: scripts/soak.sh [MINUTES] [--valgrind | --lsan] [--build DIR] [--work DIR]
+# usage: scripts/soak.sh [MINUTES] [--valgrind | --lsan] [--rt] [--build DIR] [--work DIR]
 #                        [--frames N] [--keep]
 #   MINUTES     run length (default 30)
 #   --valgrind  run seaviod under valgrind memcheck (much slower than real time: frames drop)
 #   --lsan      run seaviod with the LeakSanitizer runtime preloaded (leaks reported at exit)
+#   --rt        as on the vehicle: seaviod at SCHED_FIFO 20 like systemd/seaviod.service
+#               (chrt; its map ICP and status threads demote themselves to SCHED_BATCH), the
+#               player (the sensors) at SCHED_FIFO 30, lcm-logger at SCHED_FIFO 19. Needs root
+#               (a network namespace without a user namespace, which would forbid SCHED_FIFO).
 #   --build     build folder holding bin/seavio and bin/seaviod (default: build)
 #   --work      scratch folder (default: a new /tmp/seavio_soak.XXXXXX); the simulated
 #               survey and its log are reused if already there
@@ -27,15 +35,17 @@ build="$here/build"
 work=""
 frames=600
 keep=0
+rt=0
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --valgrind) mode=valgrind ;;
     --lsan) mode=lsan ;;
+    --rt) rt=1 ;;
     --build) build="$(cd "$2" && pwd)"; shift ;;
     --work) work="$2"; shift ;;
     --frames) frames="$2"; shift ;;
     --keep) keep=1 ;;
-    -h|--help) sed -n '2,24p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,33p' "$0"; exit 0 ;;
     [0-9]*) minutes="$1" ;;
     *) echo "soak.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
@@ -50,6 +60,10 @@ done
 for t in lcm-logger unshare ip; do
   command -v "$t" >/dev/null || { echo "soak.sh: '$t' not found (scripts/setup.sh installs it)" >&2; exit 2; }
 done
+if [[ $rt == 1 ]]; then
+  command -v chrt >/dev/null || { echo "soak.sh: 'chrt' not found (util-linux)" >&2; exit 2; }
+  [[ $EUID -eq 0 ]] || { echo "soak.sh: --rt needs root (SCHED_FIFO)" >&2; exit 2; }
+fi
 if [[ "$mode" == valgrind ]]; then command -v valgrind >/dev/null || { echo "soak.sh: valgrind not installed" >&2; exit 2; }; fi
 lsan_lib=""
 if [[ "$mode" == lsan ]]; then
@@ -63,7 +77,7 @@ if [[ -z "$work" ]]; then
 fi
 mkdir -p "$work"
 seconds=$(awk -v m="$minutes" 'BEGIN { printf "%d", m * 60 }')
-echo "soak: $minutes min, mode $mode, work folder $work"
+echo "soak: $minutes min, mode $mode$( [[ $rt == 1 ]] && echo ", real-time priorities (--rt)"), work folder $work, load average $(cut -d' ' -f1-3 /proc/loadavg)"
 
 # 1. Survey and its log (reused when present).
 if [[ ! -d "$work/seq/mav0" ]]; then
@@ -93,21 +107,41 @@ case "$mode" in
   *) launcher="" ;;
 esac
 
-# 3. The run, inside a private network namespace.
+# With --lsan: the same preload must catch a planted leak, or "no leak reported" means nothing.
+planted="not checked"
+if [[ "$mode" == lsan ]]; then
+  if command -v cc >/dev/null; then
+    printf '#include <stdlib.h>\nvoid* volatile keep;\nint main(void) { keep = malloc(4242); keep = 0; return 0; }\n' > "$work/planted_leak.c"
+    cc -O0 -o "$work/planted_leak" "$work/planted_leak.c"
+    env LD_PRELOAD="$lsan_lib" LSAN_OPTIONS="log_path=$work/planted" "$work/planted_leak" || true
+    if grep -q "4242 byte(s) leaked" "$work"/planted.* 2>/dev/null; then planted="caught"; else planted="missed"; fi
+    rm -f "$work"/planted.*
+  else
+    planted="not checked (no cc)"
+  fi
+fi
+
+# 3. The run, inside a private network namespace. --rt: as root, a network namespace alone
+# (a user namespace, -r, would take away the right to SCHED_FIFO).
+if [[ $rt == 1 ]]; then
+  ns="unshare -n"; daemon_prio="chrt -f 20"; player_prio="chrt -f 30"; logger_prio="chrt -f 19"
+else
+  ns="unshare -rn"; daemon_prio=""; player_prio=""; logger_prio=""
+fi
 export SOAK_WORK="$work" SOAK_URL="$url" SOAK_SECONDS="$seconds" SOAK_SEAVIO="$seavio" SOAK_SEAVIOD="$seaviod"
-export SOAK_LAUNCHER="$launcher"
-unshare -rn bash -c '
+export SOAK_LAUNCHER="$launcher" SOAK_DAEMON_PRIO="$daemon_prio" SOAK_PLAYER_PRIO="$player_prio" SOAK_LOGGER_PRIO="$logger_prio"
+$ns bash -c '
 set -euo pipefail
 ip link set lo up
 ip route add 224.0.0.0/4 dev lo
 w="$SOAK_WORK"
-lcm-logger --lcm-url="$SOAK_URL" -c "SEAVIO_POSE|SEAVIO_STATUS" --force "$w/out.lcmlog" > "$w/logger.log" 2>&1 &
+$SOAK_LOGGER_PRIO lcm-logger --lcm-url="$SOAK_URL" -c "SEAVIO_POSE|SEAVIO_STATUS" --force "$w/out.lcmlog" > "$w/logger.log" 2>&1 &
 logger=$!
-$SOAK_LAUNCHER "$SOAK_SEAVIOD" --config "$w/soak.yaml" > "$w/seaviod.log" 2>&1 &
+$SOAK_DAEMON_PRIO $SOAK_LAUNCHER "$SOAK_SEAVIOD" --config "$w/soak.yaml" > "$w/seaviod.log" 2>&1 &
 daemon=$!
 sleep 3
 kill -0 $daemon 2>/dev/null || { echo "soak: seaviod exited at start:"; cat "$w/seaviod.log"; exit 2; }
-# valgrind and env exec in place: $daemon is the seaviod process itself.
+# chrt, valgrind and env exec in place: $daemon is the seaviod process itself.
 pid=$daemon
 echo "t_s,rss_kb" > "$w/rss.csv"
 start=$(date +%s)
@@ -118,7 +152,7 @@ start=$(date +%s)
   done
 ) &
 sampler=$!
-"$SOAK_SEAVIO" log --play "$w/survey.lcmlog" --url "$SOAK_URL" --speed 1 --loop-s "$SOAK_SECONDS" > "$w/play.log" 2>&1 || true
+$SOAK_PLAYER_PRIO "$SOAK_SEAVIO" log --play "$w/survey.lcmlog" --url "$SOAK_URL" --speed 1 --loop-s "$SOAK_SECONDS" > "$w/play.log" 2>&1 || true
 sleep 3  # the last frames leave the pipeline
 echo "$(( $(date +%s) - start )),$(awk "/^VmRSS/ {print \$2}" /proc/$pid/status 2>/dev/null || echo 0)" >> "$w/rss.csv"
 kill $sampler 2>/dev/null || true
@@ -132,28 +166,87 @@ wait $logger || true
 echo
 echo "== player"; cat "$work/play.log"
 echo "== seaviod summary at exit"; sed -n '/seaviod health/,$p' "$work/seaviod.log" | tail -n 30
+window=300
+if (( seconds < 2 * window )); then window=$(( seconds / 2 )); fi
+last_from=$(( seconds - window ))
 echo "== RSS (every 10 s: $work/rss.csv)"
-awk -F, 'NR > 1 && $2 > 0 { n++; x[n] = $1; y[n] = $2 }
+# Writes "slope_mb_h first_mean_mb last_mean_mb" to rss.fit for the verdict.
+awk -F, -v w="$window" -v end_s="$seconds" -v fit="$work/rss.fit" 'NR > 1 && $2 > 0 { n++; x[n] = $1; y[n] = $2 }
   END {
-    if (n < 2) { print "too few RSS samples"; exit }
+    if (n < 2) { print "too few RSS samples"; print "nan nan nan" > fit; exit }
     # Slope by least squares, skipping the first minute (start-up allocations).
     for (i = 1; i <= n; i++) late += (x[i] >= 60)
     skip = late >= 6 ? 60 : -1  # too short a run: fit every sample
     for (i = 1; i <= n; i++) {
       if (y[i] > top) top = y[i]
       if (x[i] >= skip) { m++; sx += x[i]; sy += y[i]; sxx += x[i] * x[i]; sxy += x[i] * y[i] }
+      if (x[i] < w) { nf++; sf += y[i] }
+      if (x[i] >= end_s - w) { nl++; sl += y[i] }
     }
     slope = (m > 1 && m * sxx - sx * sx > 0) ? (m * sxy - sx * sy) / (m * sxx - sx * sx) : 0
     printf "RSS start %.1f MB, end %.1f MB, max %.1f MB; slope %+.2f MB/h (least squares over %d of %d samples%s)\n",
       y[1] / 1024, y[n] / 1024, top / 1024, slope * 3600 / 1024, m, n, (skip > 0 ? ", first minute skipped" : "")
+    printf "RSS mean of the first %d s %.1f MB (%d samples), of the last %d s %.1f MB (%d samples)\n",
+      w, (nf ? sf / nf / 1024 : 0), nf, w, (nl ? sl / nl / 1024 : 0), nl
+    printf "%.3f %.2f %.2f\n", slope * 3600 / 1024, (nf ? sf / nf / 1024 : 0), (nl ? sl / nl / 1024 : 0) > fit
   }' "$work/rss.csv"
-window=300
-if (( seconds < 2 * window )); then window=$(( seconds / 2 )); fi
 echo "== latency, first $window s"
-"$seavio" profile "$work/out.lcmlog" --to-s "$window" --plot "$work/first.png" | sed -n '1,40p'
-last_from=$(( seconds - window ))
+"$seavio" profile "$work/out.lcmlog" --to-s "$window" --plot "$work/first.png" --json "$work/first.json" | sed -n '1,40p'
 echo "== latency, last $window s (from $last_from s)"
-"$seavio" profile "$work/out.lcmlog" --from-s "$last_from" --plot "$work/last.png" | sed -n '1,40p'
-if [[ "$mode" == valgrind ]]; then echo "== valgrind"; grep -E "definitely|indirectly|ERROR SUMMARY" "$work/valgrind.log" || true; fi
-if [[ "$mode" == lsan ]]; then echo "== LeakSanitizer"; cat "$work"/lsan* 2>/dev/null || echo "no leak reported"; fi
+"$seavio" profile "$work/out.lcmlog" --from-s "$last_from" --plot "$work/last.png" --json "$work/last.json" | sed -n '1,40p'
+leaks="?"
+if [[ "$mode" == valgrind ]]; then
+  echo "== valgrind"; grep -E "definitely|indirectly|ERROR SUMMARY" "$work/valgrind.log" || true
+  # Leak records of "definitely" or "indirectly" lost blocks in the summary's loss records.
+  leaks=$(grep -cE "are (definitely|indirectly) lost in loss record" "$work/valgrind.log" || true)
+fi
+if [[ "$mode" == lsan ]]; then
+  echo "== LeakSanitizer"; cat "$work"/lsan* 2>/dev/null || echo "no leak reported"
+  leaks=$(cat "$work"/lsan* 2>/dev/null | grep -cE "^(Direct|Indirect) leak of" || true)
+  echo "planted leak (a 4242-byte malloc never freed, same preload): $planted"
+fi
+
+# 5. Verdict: one line per limit, PASS or FAIL, no interpretation needed.
+jstat() {  # jstat FILE NAME FIELD: FIELD of the per-frame statistics NAME in a profile JSON
+  grep -o "\"name\": \"$2\"[^}]*" "$1" 2>/dev/null | head -1 | sed -E "s/.*\"$3\": ([^,}]+).*/\1/"
+}
+counter() {  # counter TEXT: the number after TEXT in seaviod's exit summary (0 if absent)
+  local v
+  v=$(sed -n '/seaviod health/,$p' "$work/seaviod.log" | grep -oE "$1 [0-9]+" | head -1 | grep -oE '[0-9]+$' || true)
+  echo "${v:-0}"
+}
+frames_in=$(counter "frames in"); processed=$(counter "processed")
+dropped_ring=$(counter "dropped in ring"); dropped_stop=$(counter "dropped at shutdown")
+missing=$(counter "missing upstream \(seq gaps\)"); rejected=$(counter "rejected stamps")
+publish_fail=$(grep -oE '[0-9]+ publish failures' "$work/play.log" | grep -oE '^[0-9]+' || echo "?")
+read -r rss_slope rss_first rss_last < "$work/rss.fit"
+f99=$(jstat "$work/first.json" capture_to_publish_replay p99_ms); l99=$(jstat "$work/last.json" capture_to_publish_replay p99_ms)
+f50=$(jstat "$work/first.json" capture_to_publish_replay p50_ms); l50=$(jstat "$work/last.json" capture_to_publish_replay p50_ms)
+echo
+echo "== verdict ($minutes min, mode $mode$( [[ $rt == 1 ]] && echo ", --rt"); load average at the end $(cut -d' ' -f1-3 /proc/loadavg))"
+awk -v slope="$rss_slope" -v rf="$rss_first" -v rl="$rss_last" -v leaks="$leaks" -v planted="$planted" -v mode="$mode" \
+    -v fin="$frames_in" -v proc="$processed" -v dring="$dropped_ring" -v dstop="$dropped_stop" -v miss="$missing" \
+    -v rej="$rejected" -v pubf="$publish_fail" -v f50="$f50" -v f99="$f99" -v l50="$l50" -v l99="$l99" \
+    -v expect="$(( seconds * 15 ))" -v w="$window" '
+  function line(ok, what) { printf "%s %s\n", (ok ? "PASS" : "FAIL"), what; if (!ok) fail = 1 }
+  BEGIN {
+    max_slope = 5; max_ratio = 1.2; goal = 33
+    line(slope != "nan" && slope < max_slope,
+         sprintf("RSS slope %+.2f MB/h < %g MB/h (mean first %d s %.1f MB, last %d s %.1f MB)", slope, max_slope, w, rf, w, rl))
+    if (mode == "plain") line(0, "leaks: not checked (run with --lsan or --valgrind)")
+    else if (mode == "lsan") line(leaks == 0 && planted == "caught",
+         sprintf("leaks: %s reported by LeakSanitizer at exit; planted leak %s", leaks, planted))
+    else line(leaks == 0, sprintf("leaks: %s valgrind loss records definitely/indirectly lost", leaks))
+    lost = dring + dstop + miss + rej
+    line(lost == 0 && pubf == 0 && fin > 0,
+         sprintf("frames: %d in (%d played at 15 fps), %d processed; dropped in ring %d, at shutdown %d, missing upstream %d, rejected stamps %d; player publish failures %s",
+                 fin, expect, proc, dring, dstop, miss, rej, pubf))
+    ok = f99 + 0 > 0 && l99 + 0 > 0
+    line(ok && l99 / f99 < max_ratio,
+         sprintf("latency growth: capture->publish p99 last %d s / first %d s = %.1f / %.1f ms = %.2f < %g (p50 %.1f -> %.1f ms)",
+                 w, w, l99, f99, (ok ? l99 / f99 : 0), max_ratio, f50, l50))
+    line(ok && f99 <= goal && l99 <= goal, sprintf("issue 8 goal: capture->publish p99 <= %g ms in both windows (%.1f, %.1f ms)", goal, f99, l99))
+    exit fail
+  }' && verdict=0 || verdict=1
 echo "soak: files in $work"
+exit $verdict
