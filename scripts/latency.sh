@@ -11,7 +11,9 @@
 # `seavio profile` reports receipt to publish per frame (end_to_end) and, for a real-time
 # replay, capture to publish with the stamp moved onto the daemon clock by the replay's
 # offset (capture_to_publish_replay: the camera thread's decode counted too). The verdict
-# uses the latter, the larger of the two.
+# uses the latter, the larger of the two. Each run also reports the CPU time that other
+# processes' real-time threads able to preempt the daemon used meanwhile (a shared machine's
+# `chrt -f 50` benchmark): a run with rival CPU measured the machine, not the daemon.
 #
 # usage: scripts/latency.sh [--rt | --no-rt] [--runs N] [--modes "local global"]
 #                           [--frames N] [--seed S] [--imu-hold-ms MS] [--build DIR]
@@ -55,7 +57,7 @@ while [[ $# -gt 0 ]]; do
     --build) build="$(cd "$2" && pwd)"; shift ;;
     --work) work="$2"; shift ;;
     --keep) keep=1 ;;
-    -h|--help) sed -n '2,31p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,34p' "$0"; exit 0 ;;
     *) echo "latency.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
   shift
@@ -90,11 +92,13 @@ fi
 url="udpm://239.255.76.67:7667?ttl=0&recv_buf_size=16777216"
 # A user namespace (unshare -r) would take away the right to SCHED_FIFO: as root, a
 # network namespace alone.
-if [[ $rt == 1 ]]; then ns="unshare -n"; daemon_prio="chrt -f 20"; logger_prio="chrt -f 19"
-else ns="unshare -rn"; daemon_prio=""; logger_prio=""; fi
+# rival_prio: other processes' real-time threads from this priority up preempt the daemon
+# (scripts/rival_cpu.awk); their CPU time during a run is reported beside its figures.
+if [[ $rt == 1 ]]; then ns="unshare -n"; daemon_prio="chrt -f 20"; logger_prio="chrt -f 19"; rival_prio=20
+else ns="unshare -rn"; daemon_prio=""; logger_prio=""; rival_prio=1; fi
 
 summary="$work/summary.csv"
-echo "mode,run,p50_ms,p99_ms,max_ms,receipt_p50_ms,receipt_p99_ms,frames,dropped,seq_gaps,processed,frames_in" > "$summary"
+echo "mode,run,p50_ms,p99_ms,max_ms,receipt_p50_ms,receipt_p99_ms,frames,dropped,seq_gaps,processed,frames_in,rival_rt_cpu_s" > "$summary"
 echo "latency: $runs run(s) per mode ($modes), $( [[ $rt == 1 ]] && echo "daemon SCHED_FIFO 20" || echo "normal scheduling"), imu_hold_ms $imu_hold_ms, load average $(cut -d' ' -f1-3 /proc/loadavg)"
 for mode in $modes; do
   for run in $(seq 1 "$runs"); do
@@ -115,6 +119,7 @@ odometry:
   mode: $mode
 EOF
     export LAT_DIR="$d" LAT_URL="$url" LAT_SEAVIOD="$seaviod" LAT_DAEMON_PRIO="$daemon_prio" LAT_LOGGER_PRIO="$logger_prio"
+    export LAT_RIVAL_PRIO="$rival_prio" LAT_RIVAL_AWK="$here/scripts/rival_cpu.awk"
     $ns bash -c '
 set -euo pipefail
 ip link set lo up
@@ -122,8 +127,18 @@ ip route add 224.0.0.0/4 dev lo
 $LAT_LOGGER_PRIO lcm-logger --lcm-url="$LAT_URL" -c "SEAVIO_POSE|SEAVIO_STATUS" --force "$LAT_DIR/out.lcmlog" > "$LAT_DIR/logger.log" 2>&1 &
 logger=$!
 sleep 0.5
+$LAT_DAEMON_PRIO "$LAT_SEAVIOD" --config "$LAT_DIR/daemon.yaml" > "$LAT_DIR/seaviod.log" 2>&1 &
+daemon=$!
+# Every second: CPU [s] of other processes real-time threads able to preempt the daemon.
+rm -f "$LAT_DIR/rival.state" "$LAT_DIR/rival.txt"
+while kill -0 $daemon 2>/dev/null; do
+  { grep -H "" /proc/[0-9]*/task/*/stat 2>/dev/null || true; } |
+    awk -v state="$LAT_DIR/rival.state" -v min="$LAT_RIVAL_PRIO" -v hz="$(getconf CLK_TCK)" -v now="$(cut -d" " -f1 /proc/uptime)" \
+        -v excl=" $$ $daemon $logger " -f "$LAT_RIVAL_AWK" >> "$LAT_DIR/rival.txt"
+  sleep 1
+done
 rc=0
-$LAT_DAEMON_PRIO "$LAT_SEAVIOD" --config "$LAT_DIR/daemon.yaml" > "$LAT_DIR/seaviod.log" 2>&1 || rc=$?
+wait $daemon || rc=$?
 sleep 0.5
 kill -INT $logger
 wait $logger || true
@@ -141,8 +156,8 @@ exit $rc
     jstat() {  # jstat NAME FIELD: FIELD of the per-frame statistics NAME in profile.json
       grep -o "\"name\": \"$1\"[^}]*" "$d/profile.json" | head -1 | sed -E "s/.*\"$2\": ([^,}]+).*/\1/"
     }
-    echo "$mode,$run,$(jstat capture_to_publish_replay p50_ms),$(jstat capture_to_publish_replay p99_ms),$(jstat capture_to_publish_replay max_ms),$(jstat end_to_end p50_ms),$(jstat end_to_end p99_ms),$(grep -m1 -o '"frames": [0-9]*' "$d/profile.json" | grep -o '[0-9]*$'),$dropped,$(grep -m1 -o '"seq_gaps": [0-9]*' "$d/profile.json" | grep -o '[0-9]*$'),$processed,$frames_in" >> "$summary"
-    tail -n 1 "$summary" | awk -F, '{ printf "  %-6s run %s: capture->publish p50 %.1f ms, p99 %.1f ms, max %.1f ms; receipt->publish p50 %.1f, p99 %.1f ms; %d poses, %d dropped, %d seq gaps (%d of %d frames processed)\n", $1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12 }'
+    echo "$mode,$run,$(jstat capture_to_publish_replay p50_ms),$(jstat capture_to_publish_replay p99_ms),$(jstat capture_to_publish_replay max_ms),$(jstat end_to_end p50_ms),$(jstat end_to_end p99_ms),$(grep -m1 -o '"frames": [0-9]*' "$d/profile.json" | grep -o '[0-9]*$'),$dropped,$(grep -m1 -o '"seq_gaps": [0-9]*' "$d/profile.json" | grep -o '[0-9]*$'),$processed,$frames_in,$(awk '{ c += $1 } END { printf "%.1f", c }' "$d/rival.txt")" >> "$summary"
+    tail -n 1 "$summary" | awk -F, '{ printf "  %-6s run %s: capture->publish p50 %.1f ms, p99 %.1f ms, max %.1f ms; receipt->publish p50 %.1f, p99 %.1f ms; %d poses, %d dropped, %d seq gaps (%d of %d frames processed); rival real-time CPU %.1f s\n", $1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13 }'
   done
 done
 

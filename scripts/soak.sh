@@ -2,12 +2,15 @@
 # Soak test of seaviod (issue 7): a simulated survey, converted to an LCM log, is played in
 # real time (looped and re-stamped by `seavio log --play --loop-s`) over UDP multicast into a
 # running seaviod for N minutes, while lcm-logger records its poses and status. The daemon's
-# RSS is sampled every 10 s. At the end: RSS start/end/slope per hour, and latency p50/p99
+# RSS is sampled every 2 s. At the end: RSS start/end/slope per hour, and latency p50/p99
 # of the first and last 5 minutes (`seavio profile --from-s/--to-s` on the recorded log).
 # It ends with a verdict, one PASS/FAIL line per limit (issue 9): RSS slope under 5 MB/h,
 # no leak reported (and, with --lsan, a planted leak caught by the same preload), no frame
 # dropped or lost, latency p99 of the last 5 minutes under 1.2 x that of the first; plus
-# the issue 8 goal (p99 <= 33 ms) in both windows. Exit status 1 if any line fails.
+# the issue 8 goal (p99 <= 33 ms) in both windows. Exit status 1 if any line fails. The
+# latency lines judge the frames during which no other process's real-time thread took the
+# CPU from the daemon (sampled every 2 s, see step 3); the figures over all frames and that
+# rival CPU time follow as an INFO line.
 #
 # Everything runs in a private network namespace (unshare -rn), so multicast stays on that
 # namespace's loopback and parallel runs do not collide.
@@ -45,7 +48,7 @@ while [[ $# -gt 0 ]]; do
     --work) work="$2"; shift ;;
     --frames) frames="$2"; shift ;;
     --keep) keep=1 ;;
-    -h|--help) sed -n '2,33p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,31p' "$0"; exit 0 ;;
     [0-9]*) minutes="$1" ;;
     *) echo "soak.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
@@ -124,12 +127,17 @@ fi
 # 3. The run, inside a private network namespace. --rt: as root, a network namespace alone
 # (a user namespace, -r, would take away the right to SCHED_FIFO).
 if [[ $rt == 1 ]]; then
-  ns="unshare -n"; daemon_prio="chrt -f 20"; player_prio="chrt -f 30"; logger_prio="chrt -f 19"
+  ns="unshare -n"; daemon_prio="chrt -f 20"; player_prio="chrt -f 30"; logger_prio="chrt -f 19"; rival_prio=20
 else
-  ns="unshare -rn"; daemon_prio=""; player_prio=""; logger_prio=""
+  ns="unshare -rn"; daemon_prio=""; player_prio=""; logger_prio=""; rival_prio=1
 fi
+# Starvation, measured rather than guessed: every 2 s the sampler also adds up the CPU time
+# used by other processes' real-time threads at a priority that preempts seaviod's frame
+# path (>= 20 with --rt, any without; scripts/rival_cpu.awk): on a shared machine another
+# engineer's `chrt -f 50` benchmark takes the cores from the daemon, which no vehicle does.
 export SOAK_WORK="$work" SOAK_URL="$url" SOAK_SECONDS="$seconds" SOAK_SEAVIO="$seavio" SOAK_SEAVIOD="$seaviod"
 export SOAK_LAUNCHER="$launcher" SOAK_DAEMON_PRIO="$daemon_prio" SOAK_PLAYER_PRIO="$player_prio" SOAK_LOGGER_PRIO="$logger_prio"
+export SOAK_RIVAL_PRIO="$rival_prio" SOAK_RIVAL_AWK="$here/scripts/rival_cpu.awk"
 $ns bash -c '
 set -euo pipefail
 ip link set lo up
@@ -143,19 +151,26 @@ sleep 3
 kill -0 $daemon 2>/dev/null || { echo "soak: seaviod exited at start:"; cat "$w/seaviod.log"; exit 2; }
 # chrt, valgrind and env exec in place: $daemon is the seaviod process itself.
 pid=$daemon
-echo "t_s,rss_kb" > "$w/rss.csv"
+hz=$(getconf CLK_TCK)
+sample() {  # t_s since start, RSS [kB], monotonic clock [s], rival real-time CPU [s] since the last sample
+  local now; now=$(cut -d" " -f1 /proc/uptime)
+  echo "$(( $(date +%s) - start )),$(awk "/^VmRSS/ {print \$2}" /proc/$pid/status 2>/dev/null || echo 0),$now,$( { grep -H "" /proc/[0-9]*/task/*/stat 2>/dev/null || true; } |
+    awk -v state="$w/rival.state" -v min="$SOAK_RIVAL_PRIO" -v hz="$hz" -v now="$now" -v excl=" $$ $pid $logger ${player:-0} " -f "$SOAK_RIVAL_AWK")" >> "$w/rss.csv"
+}
+echo "t_s,rss_kb,uptime_s,rival_rt_cpu_s" > "$w/rss.csv"
+rm -f "$w/rival.state"
 start=$(date +%s)
+$SOAK_PLAYER_PRIO "$SOAK_SEAVIO" log --play "$w/survey.lcmlog" --url "$SOAK_URL" --speed 1 --loop-s "$SOAK_SECONDS" > "$w/play.log" 2>&1 &
+player=$!
 (
-  while kill -0 $pid 2>/dev/null; do
-    echo "$(( $(date +%s) - start )),$(awk "/^VmRSS/ {print \$2}" /proc/$pid/status 2>/dev/null || echo 0)" >> "$w/rss.csv"
-    sleep 10
-  done
+  while kill -0 $player 2>/dev/null; do sample; sleep 2; done
 ) &
 sampler=$!
-$SOAK_PLAYER_PRIO "$SOAK_SEAVIO" log --play "$w/survey.lcmlog" --url "$SOAK_URL" --speed 1 --loop-s "$SOAK_SECONDS" > "$w/play.log" 2>&1 || true
+wait $player || true
 sleep 3  # the last frames leave the pipeline
-echo "$(( $(date +%s) - start )),$(awk "/^VmRSS/ {print \$2}" /proc/$pid/status 2>/dev/null || echo 0)" >> "$w/rss.csv"
 kill $sampler 2>/dev/null || true
+wait $sampler 2>/dev/null || true
+sample
 kill -TERM $daemon
 wait $daemon || echo "soak: seaviod exit status $?"
 kill -INT $logger
@@ -169,7 +184,7 @@ echo "== seaviod summary at exit"; sed -n '/seaviod health/,$p' "$work/seaviod.l
 window=300
 if (( seconds < 2 * window )); then window=$(( seconds / 2 )); fi
 last_from=$(( seconds - window ))
-echo "== RSS (every 10 s: $work/rss.csv)"
+echo "== RSS (every 2 s: $work/rss.csv)"
 # Writes "slope_mb_h first_mean_mb last_mean_mb" to rss.fit for the verdict.
 awk -F, -v w="$window" -v end_s="$seconds" -v fit="$work/rss.fit" 'NR > 1 && $2 > 0 { n++; x[n] = $1; y[n] = $2 }
   END {
@@ -210,27 +225,66 @@ fi
 jstat() {  # jstat FILE NAME FIELD: FIELD of the per-frame statistics NAME in a profile JSON
   grep -o "\"name\": \"$2\"[^}]*" "$1" 2>/dev/null | head -1 | sed -E "s/.*\"$3\": ([^,}]+).*/\1/"
 }
+jarray() {  # jarray FILE KEY: the elements of a one-line JSON array, one per line
+  grep -oE "\"$2\": \[[^]]*\]" "$1" | sed -E 's/^[^[]*\[//; s/\]$//' | tr ',' '\n' | tr -d ' ' | grep -v '^$' || true
+}
 counter() {  # counter TEXT: the number after TEXT in seaviod's exit summary (0 if absent)
   local v
   v=$(sed -n '/seaviod health/,$p' "$work/seaviod.log" | grep -oE "$1 [0-9]+" | head -1 | grep -oE '[0-9]+$' || true)
   echo "${v:-0}"
+}
+pct() {  # pct Q: nearest-rank percentile of the numbers on stdin, "nan" if none
+  sort -g | awk -v q="$1" '{ v[NR] = $1 } END { if (!NR) { print "nan"; exit } r = int(q * NR); if (r < q * NR) r++; if (r < 1) r = 1; print v[r] }'
+}
+# window_split JSON OUT: writes "capture_to_publish_ms rival(0/1) seq_gap_before" per frame to OUT
+# and prints the rival real-time CPU [s] of the window. A frame counts as disturbed when
+# another process's real-time thread ran (> 0.05 s CPU) in a sampler interval overlapping
+# the second before its publication (its capture, processing and publication).
+window_split() {
+  local t0
+  t0=$(grep -oE '"first_publish_t_ns": [0-9]+' "$1" | grep -oE '[0-9]+$')
+  paste -d' ' <(jarray "$1" publish_s) <(jarray "$1" capture_to_publish_replay_ms) <(jarray "$1" seq) |
+    awk -F'[ ,]' -v t0="$t0" -v out="$2" '
+      NR == FNR { if (FNR > 1 && $3 != "") { k++; up[k] = $3; rv[k] = $4 } next }
+      { n++; a[n] = t0 / 1e9 + $1; lat[n] = $2; seq[n] = $3 }
+      END {
+        j = 1
+        for (i = 1; i <= n; i++) {
+          while (j < k && up[j] <= a[i] - 1) j++           # first interval ending after a[i] - 1
+          bad = 0
+          for (m = j; m <= k && (m == 1 || up[m - 1] < a[i]); m++) if (rv[m] > 0.05) bad = 1
+          print lat[i], bad, (i > 1 && seq[i] > seq[i - 1] + 1 ? seq[i] - seq[i - 1] - 1 : 0) > out
+        }
+        for (m = 2; m <= k; m++) if (up[m] > a[1] && up[m - 1] < a[n]) cpu += rv[m]
+        printf "%.1f\n", cpu
+      }' "$work/rss.csv" -
 }
 frames_in=$(counter "frames in"); processed=$(counter "processed")
 dropped_ring=$(counter "dropped in ring"); dropped_stop=$(counter "dropped at shutdown")
 missing=$(counter "missing upstream \(seq gaps\)"); rejected=$(counter "rejected stamps")
 publish_fail=$(grep -oE '[0-9]+ publish failures' "$work/play.log" | grep -oE '^[0-9]+' || echo "?")
 read -r rss_slope rss_first rss_last < "$work/rss.fit"
-f99=$(jstat "$work/first.json" capture_to_publish_replay p99_ms); l99=$(jstat "$work/last.json" capture_to_publish_replay p99_ms)
-f50=$(jstat "$work/first.json" capture_to_publish_replay p50_ms); l50=$(jstat "$work/last.json" capture_to_publish_replay p50_ms)
+rival_first=$(window_split "$work/first.json" "$work/first.frames"); rival_last=$(window_split "$work/last.json" "$work/last.frames")
+f99=$(awk '{ print $1 }' "$work/first.frames" | pct 0.99); l99=$(awk '{ print $1 }' "$work/last.frames" | pct 0.99)
+f50=$(awk '{ print $1 }' "$work/first.frames" | pct 0.5); l50=$(awk '{ print $1 }' "$work/last.frames" | pct 0.5)
+fq99=$(awk '!$2 { print $1 }' "$work/first.frames" | pct 0.99); lq99=$(awk '!$2 { print $1 }' "$work/last.frames" | pct 0.99)
+fq50=$(awk '!$2 { print $1 }' "$work/first.frames" | pct 0.5); lq50=$(awk '!$2 { print $1 }' "$work/last.frames" | pct 0.5)
+fqn=$(awk '!$2' "$work/first.frames" | wc -l); lqn=$(awk '!$2' "$work/last.frames" | wc -l)
+fn=$(wc -l < "$work/first.frames"); ln=$(wc -l < "$work/last.frames")
+gaps_quiet=$(cat "$work/first.frames" "$work/last.frames" | awk '!$2 { g += $3 } END { print g + 0 }')
+rival_all=$(awk -F, 'NR > 1 { c += $4 } END { printf "%.1f", c }' "$work/rss.csv")
 echo
 echo "== verdict ($minutes min, mode $mode$( [[ $rt == 1 ]] && echo ", --rt"); load average at the end $(cut -d' ' -f1-3 /proc/loadavg))"
+echo "   (latency: capture->publish with the replay offset; 'undisturbed' = frames during which no other"
+echo "   process's real-time thread at the daemon's priority or above ran: ${rival_all} s of such CPU in the run)"
 awk -v slope="$rss_slope" -v rf="$rss_first" -v rl="$rss_last" -v leaks="$leaks" -v planted="$planted" -v mode="$mode" \
     -v fin="$frames_in" -v proc="$processed" -v dring="$dropped_ring" -v dstop="$dropped_stop" -v miss="$missing" \
     -v rej="$rejected" -v pubf="$publish_fail" -v f50="$f50" -v f99="$f99" -v l50="$l50" -v l99="$l99" \
-    -v expect="$(( seconds * 15 ))" -v w="$window" '
+    -v fq50="$fq50" -v fq99="$fq99" -v lq50="$lq50" -v lq99="$lq99" -v fqn="$fqn" -v lqn="$lqn" -v fn="$fn" -v ln="$ln" \
+    -v rf_cpu="$rival_first" -v rl_cpu="$rival_last" -v gq="$gaps_quiet" -v expect="$(( seconds * 15 ))" -v w="$window" '
   function line(ok, what) { printf "%s %s\n", (ok ? "PASS" : "FAIL"), what; if (!ok) fail = 1 }
   BEGIN {
-    max_slope = 5; max_ratio = 1.2; goal = 33
+    max_slope = 5; max_ratio = 1.2; goal = 33; min_frames = 100
     line(slope != "nan" && slope < max_slope,
          sprintf("RSS slope %+.2f MB/h < %g MB/h (mean first %d s %.1f MB, last %d s %.1f MB)", slope, max_slope, w, rf, w, rl))
     if (mode == "plain") line(0, "leaks: not checked (run with --lsan or --valgrind)")
@@ -239,13 +293,16 @@ awk -v slope="$rss_slope" -v rf="$rss_first" -v rl="$rss_last" -v leaks="$leaks"
     else line(leaks == 0, sprintf("leaks: %s valgrind loss records definitely/indirectly lost", leaks))
     lost = dring + dstop + miss + rej
     line(lost == 0 && pubf == 0 && fin > 0,
-         sprintf("frames: %d in (%d played at 15 fps), %d processed; dropped in ring %d, at shutdown %d, missing upstream %d, rejected stamps %d; player publish failures %s",
-                 fin, expect, proc, dring, dstop, miss, rej, pubf))
-    ok = f99 + 0 > 0 && l99 + 0 > 0
-    line(ok && l99 / f99 < max_ratio,
-         sprintf("latency growth: capture->publish p99 last %d s / first %d s = %.1f / %.1f ms = %.2f < %g (p50 %.1f -> %.1f ms)",
-                 w, w, l99, f99, (ok ? l99 / f99 : 0), max_ratio, f50, l50))
-    line(ok && f99 <= goal && l99 <= goal, sprintf("issue 8 goal: capture->publish p99 <= %g ms in both windows (%.1f, %.1f ms)", goal, f99, l99))
+         sprintf("frames: %d in (%d played at 15 fps), %d processed; dropped in ring %d, at shutdown %d, missing upstream %d, rejected stamps %d; player publish failures %s (pose seq gaps while undisturbed, both windows: %d)",
+                 fin, expect, proc, dring, dstop, miss, rej, pubf, gq))
+    ok = fqn >= min_frames && lqn >= min_frames && fq99 + 0 > 0
+    line(ok && lq99 / fq99 < max_ratio,
+         sprintf("latency growth, undisturbed frames (%d of %d first, %d of %d last): p99 last %d s / first %d s = %.1f / %.1f ms = %.2f < %g (p50 %.1f -> %.1f ms)%s",
+                 fqn, fn, lqn, ln, w, w, lq99, fq99, (ok ? lq99 / fq99 : 0), max_ratio, fq50, lq50, (ok ? "" : "; too few undisturbed frames to judge")))
+    line(ok && fq99 <= goal && lq99 <= goal,
+         sprintf("issue 8 goal, undisturbed frames: p99 <= %g ms in both windows (%.1f, %.1f ms)", goal, fq99, lq99))
+    printf "INFO all frames: p99 first %.1f ms, last %.1f ms (ratio %.2f), p50 %.1f -> %.1f ms; rival real-time CPU in the windows: first %.1f s, last %.1f s\n",
+           f99, l99, (f99 > 0 ? l99 / f99 : 0), f50, l50, rf_cpu, rl_cpu
     exit fail
   }' && verdict=0 || verdict=1
 echo "soak: files in $work"
