@@ -152,12 +152,16 @@ kill -0 $daemon 2>/dev/null || { echo "soak: seaviod exited at start:"; cat "$w/
 # chrt, valgrind and env exec in place: $daemon is the seaviod process itself.
 pid=$daemon
 hz=$(getconf CLK_TCK)
-sample() {  # t_s since start, RSS [kB], monotonic clock [s], rival real-time CPU [s] since the last sample
+# t_s since start, RSS [kB], monotonic clock [s], rival real-time CPU [s] since the last
+# sample; then, cumulative: the time seaviod threads waited runnable for a CPU [ms]
+# (schedstat run_delay) and the time the hypervisor took the CPUs (steal, /proc/stat [ticks]).
+sample() {
   local now; now=$(cut -d" " -f1 /proc/uptime)
   echo "$(( $(date +%s) - start )),$(awk "/^VmRSS/ {print \$2}" /proc/$pid/status 2>/dev/null || echo 0),$now,$( { grep -H "" /proc/[0-9]*/task/*/stat 2>/dev/null || true; } |
-    awk -v state="$w/rival.state" -v min="$SOAK_RIVAL_PRIO" -v hz="$hz" -v now="$now" -v excl=" $$ $pid $logger ${player:-0} " -f "$SOAK_RIVAL_AWK")" >> "$w/rss.csv"
+    awk -v state="$w/rival.state" -v min="$SOAK_RIVAL_PRIO" -v hz="$hz" -v now="$now" -v excl=" $$ $pid $logger ${player:-0} " -f "$SOAK_RIVAL_AWK"),$(
+    { cat /proc/$pid/task/*/schedstat 2>/dev/null || true; } | awk "{ d += \$2 } END { printf \"%d\", d / 1e6 }"),$(awk "/^cpu / { print \$9 }" /proc/stat)" >> "$w/rss.csv"
 }
-echo "t_s,rss_kb,uptime_s,rival_rt_cpu_s" > "$w/rss.csv"
+echo "t_s,rss_kb,uptime_s,rival_rt_cpu_s,daemon_wait_ms,steal_ticks" > "$w/rss.csv"
 rm -f "$w/rival.state"
 start=$(date +%s)
 $SOAK_PLAYER_PRIO "$SOAK_SEAVIO" log --play "$w/survey.lcmlog" --url "$SOAK_URL" --speed 1 --loop-s "$SOAK_SECONDS" > "$w/play.log" 2>&1 &
@@ -237,15 +241,15 @@ pct() {  # pct Q: nearest-rank percentile of the numbers on stdin, "nan" if none
   sort -g | awk -v q="$1" '{ v[NR] = $1 } END { if (!NR) { print "nan"; exit } r = int(q * NR); if (r < q * NR) r++; if (r < 1) r = 1; print v[r] }'
 }
 # window_split JSON OUT: writes "capture_to_publish_ms rival(0/1) seq_gap_before" per frame to OUT
-# and prints the rival real-time CPU [s] of the window. A frame counts as disturbed when
+# and prints, over the window: rival real-time CPU [s], seaviod's wait for a CPU [s], steal [s]. A frame counts as disturbed when
 # another process's real-time thread ran (> 0.05 s CPU) in a sampler interval overlapping
 # the second before its publication (its capture, processing and publication).
 window_split() {
   local t0
   t0=$(grep -oE '"first_publish_t_ns": [0-9]+' "$1" | grep -oE '[0-9]+$')
   paste -d' ' <(jarray "$1" publish_s) <(jarray "$1" capture_to_publish_replay_ms) <(jarray "$1" seq) |
-    awk -F'[ ,]' -v t0="$t0" -v out="$2" '
-      NR == FNR { if (FNR > 1 && $3 != "") { k++; up[k] = $3; rv[k] = $4 } next }
+    awk -F'[ ,]' -v t0="$t0" -v out="$2" -v hz="$(getconf CLK_TCK)" '
+      NR == FNR { if (FNR > 1 && $3 != "") { k++; up[k] = $3; rv[k] = $4; dw[k] = $5; st[k] = $6 } next }
       { n++; a[n] = t0 / 1e9 + $1; lat[n] = $2; seq[n] = $3 }
       END {
         j = 1
@@ -255,8 +259,8 @@ window_split() {
           for (m = j; m <= k && (m == 1 || up[m - 1] < a[i]); m++) if (rv[m] > 0.05) bad = 1
           print lat[i], bad, (i > 1 && seq[i] > seq[i - 1] + 1 ? seq[i] - seq[i - 1] - 1 : 0) > out
         }
-        for (m = 2; m <= k; m++) if (up[m] > a[1] && up[m - 1] < a[n]) cpu += rv[m]
-        printf "%.1f\n", cpu
+        for (m = 2; m <= k; m++) if (up[m] > a[1] && up[m - 1] < a[n]) { cpu += rv[m]; if (!m0) m0 = m - 1; m1 = m }
+        printf "%.1f %.1f %.1f\n", cpu, (m1 ? (dw[m1] - dw[m0]) / 1000 : 0), (m1 ? (st[m1] - st[m0]) / hz : 0)
       }' "$work/rss.csv" -
 }
 frames_in=$(counter "frames in"); processed=$(counter "processed")
@@ -264,7 +268,8 @@ dropped_ring=$(counter "dropped in ring"); dropped_stop=$(counter "dropped at sh
 missing=$(counter "missing upstream \(seq gaps\)"); rejected=$(counter "rejected stamps")
 publish_fail=$(grep -oE '[0-9]+ publish failures' "$work/play.log" | grep -oE '^[0-9]+' || echo "?")
 read -r rss_slope rss_first rss_last < "$work/rss.fit"
-rival_first=$(window_split "$work/first.json" "$work/first.frames"); rival_last=$(window_split "$work/last.json" "$work/last.frames")
+read -r rival_first wait_first steal_first < <(window_split "$work/first.json" "$work/first.frames")
+read -r rival_last wait_last steal_last < <(window_split "$work/last.json" "$work/last.frames")
 f99=$(awk '{ print $1 }' "$work/first.frames" | pct 0.99); l99=$(awk '{ print $1 }' "$work/last.frames" | pct 0.99)
 f50=$(awk '{ print $1 }' "$work/first.frames" | pct 0.5); l50=$(awk '{ print $1 }' "$work/last.frames" | pct 0.5)
 fq99=$(awk '!$2 { print $1 }' "$work/first.frames" | pct 0.99); lq99=$(awk '!$2 { print $1 }' "$work/last.frames" | pct 0.99)
@@ -281,7 +286,8 @@ awk -v slope="$rss_slope" -v rf="$rss_first" -v rl="$rss_last" -v leaks="$leaks"
     -v fin="$frames_in" -v proc="$processed" -v dring="$dropped_ring" -v dstop="$dropped_stop" -v miss="$missing" \
     -v rej="$rejected" -v pubf="$publish_fail" -v f50="$f50" -v f99="$f99" -v l50="$l50" -v l99="$l99" \
     -v fq50="$fq50" -v fq99="$fq99" -v lq50="$lq50" -v lq99="$lq99" -v fqn="$fqn" -v lqn="$lqn" -v fn="$fn" -v ln="$ln" \
-    -v rf_cpu="$rival_first" -v rl_cpu="$rival_last" -v gq="$gaps_quiet" -v expect="$(( seconds * 15 ))" -v w="$window" '
+    -v rf_cpu="$rival_first" -v rl_cpu="$rival_last" -v wf="$wait_first" -v wl="$wait_last" -v sf="$steal_first" -v sl="$steal_last" \
+    -v gq="$gaps_quiet" -v passes="$(grep -oE '[0-9]+ pass' "$work/play.log" | grep -oE '^[0-9]+' || echo "?")" -v w="$window" '
   function line(ok, what) { printf "%s %s\n", (ok ? "PASS" : "FAIL"), what; if (!ok) fail = 1 }
   BEGIN {
     max_slope = 5; max_ratio = 1.2; goal = 33; min_frames = 100
@@ -293,16 +299,17 @@ awk -v slope="$rss_slope" -v rf="$rss_first" -v rl="$rss_last" -v leaks="$leaks"
     else line(leaks == 0, sprintf("leaks: %s valgrind loss records definitely/indirectly lost", leaks))
     lost = dring + dstop + miss + rej
     line(lost == 0 && pubf == 0 && fin > 0,
-         sprintf("frames: %d in (%d played at 15 fps), %d processed; dropped in ring %d, at shutdown %d, missing upstream %d, rejected stamps %d; player publish failures %s (pose seq gaps while undisturbed, both windows: %d)",
-                 fin, expect, proc, dring, dstop, miss, rej, pubf, gq))
+         sprintf("frames: %d in (%s passes of the survey), %d processed; dropped in ring %d, at shutdown %d, missing upstream %d, rejected stamps %d; player publish failures %s (pose seq gaps while undisturbed, both windows: %d)",
+                 fin, passes, proc, dring, dstop, miss, rej, pubf, gq))
     ok = fqn >= min_frames && lqn >= min_frames && fq99 + 0 > 0
     line(ok && lq99 / fq99 < max_ratio,
          sprintf("latency growth, undisturbed frames (%d of %d first, %d of %d last): p99 last %d s / first %d s = %.1f / %.1f ms = %.2f < %g (p50 %.1f -> %.1f ms)%s",
                  fqn, fn, lqn, ln, w, w, lq99, fq99, (ok ? lq99 / fq99 : 0), max_ratio, fq50, lq50, (ok ? "" : "; too few undisturbed frames to judge")))
     line(ok && fq99 <= goal && lq99 <= goal,
          sprintf("issue 8 goal, undisturbed frames: p99 <= %g ms in both windows (%.1f, %.1f ms)", goal, fq99, lq99))
-    printf "INFO all frames: p99 first %.1f ms, last %.1f ms (ratio %.2f), p50 %.1f -> %.1f ms; rival real-time CPU in the windows: first %.1f s, last %.1f s\n",
-           f99, l99, (f99 > 0 ? l99 / f99 : 0), f50, l50, rf_cpu, rl_cpu
+    printf "INFO all frames: p99 first %.1f ms, last %.1f ms (ratio %.2f), p50 %.1f -> %.1f ms\n", f99, l99, (f99 > 0 ? l99 / f99 : 0), f50, l50
+    printf "INFO in the first / last window: rival real-time CPU %.1f / %.1f s, seaviod threads waiting for a CPU %.1f / %.1f s, hypervisor steal %.1f / %.1f s\n",
+           rf_cpu, rl_cpu, wf, wl, sf, sl
     exit fail
   }' && verdict=0 || verdict=1
 echo "soak: files in $work"
