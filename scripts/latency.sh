@@ -172,7 +172,7 @@ awk -F, -v goal="$goal_p99_ms" '
   NR > 1 {
     if (!($1 in seen)) { seen[$1] = 1; order[++nm] = $1 }
     p50[$1] = p50[$1] " " $3; p99[$1] = p99[$1] " " $4; worst[$1] = ($4 > worst[$1] ? $4 : worst[$1])
-    drop[$1] += $9 + $10; runs[$1]++
+    drop[$1] += ($9 > $10 ? $9 : $10); runs[$1]++  # counters and seq gaps see the same drops
     if ($4 > goal || $9 + $10 > 0) miss[$1]++
   }
   END {
