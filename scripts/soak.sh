@@ -8,9 +8,9 @@
 # no leak reported (and, with --lsan, a planted leak caught by the same preload), no frame
 # dropped or lost, latency p99 of the last 5 minutes under 1.2 x that of the first; plus
 # the issue 8 goal (p99 <= 33 ms) in both windows. Exit status 1 if any line fails. The
-# latency lines judge the frames during which no other process's real-time thread took the
-# CPU from the daemon (sampled every 2 s, see step 3); the figures over all frames and that
-# rival CPU time follow as an INFO line.
+# latency lines judge the frames during which no other process's real-time thread and no
+# hypervisor steal took the CPU from the daemon (sampled every 2 s, see step 3); the figures
+# over all frames, that rival CPU time and the steal follow as INFO lines.
 #
 # Everything runs in a private network namespace (unshare -rn), so multicast stays on that
 # namespace's loopback and parallel runs do not collide.
@@ -241,9 +241,12 @@ pct() {  # pct Q: nearest-rank percentile of the numbers on stdin, "nan" if none
   sort -g | awk -v q="$1" '{ v[NR] = $1 } END { if (!NR) { print "nan"; exit } r = int(q * NR); if (r < q * NR) r++; if (r < 1) r = 1; print v[r] }'
 }
 # window_split JSON OUT: writes "capture_to_publish_ms rival(0/1) seq_gap_before" per frame to OUT
-# and prints, over the window: rival real-time CPU [s], seaviod's wait for a CPU [s], steal [s]. A frame counts as disturbed when
-# another process's real-time thread ran (> 0.05 s CPU) in a sampler interval overlapping
-# the second before its publication (its capture, processing and publication).
+# and prints, over the window: rival real-time CPU [s], seaviod's wait for a CPU [s], steal [s].
+# A frame counts as disturbed when, in a sampler interval overlapping the second before its
+# publication (its capture, processing and publication), another process's real-time thread
+# ran (> 0.05 s CPU) or the hypervisor stole more than 0.1 s of the CPUs: neither happens on
+# the vehicle (soak 4, docs/reliability.md: the bursts of 40-110 ms frames came with one or
+# the other).
 window_split() {
   local t0
   t0=$(grep -oE '"first_publish_t_ns": [0-9]+' "$1" | grep -oE '[0-9]+$')
@@ -256,7 +259,8 @@ window_split() {
         for (i = 1; i <= n; i++) {
           while (j < k && up[j] <= a[i] - 1) j++           # first interval ending after a[i] - 1
           bad = 0
-          for (m = j; m <= k && (m == 1 || up[m - 1] < a[i]); m++) if (rv[m] > 0.05) bad = 1
+          for (m = j; m <= k && (m == 1 || up[m - 1] < a[i]); m++)
+            if (rv[m] > 0.05 || (m > 1 && st[m] - st[m - 1] > 0.1 * hz)) bad = 1
           print lat[i], bad, (i > 1 && seq[i] > seq[i - 1] + 1 ? seq[i] - seq[i - 1] - 1 : 0) > out
         }
         for (m = 2; m <= k; m++) if (up[m] > a[1] && up[m - 1] < a[n]) { cpu += rv[m]; if (!m0) m0 = m - 1; m1 = m }
@@ -281,7 +285,8 @@ rival_all=$(awk -F, 'NR > 1 { c += $4 } END { printf "%.1f", c }' "$work/rss.csv
 echo
 echo "== verdict ($minutes min, mode $mode$( [[ $rt == 1 ]] && echo ", --rt"); load average at the end $(cut -d' ' -f1-3 /proc/loadavg))"
 echo "   (latency: capture->publish with the replay offset; 'undisturbed' = frames during which no other"
-echo "   process's real-time thread at the daemon's priority or above ran: ${rival_all} s of such CPU in the run)"
+echo "   process's real-time thread at the daemon's priority or above ran (${rival_all} s of such CPU in the"
+echo "   run) and the hypervisor stole at most 0.1 s per 2 s sample)"
 awk -v slope="$rss_slope" -v rf="$rss_first" -v rl="$rss_last" -v leaks="$leaks" -v planted="$planted" -v mode="$mode" \
     -v fin="$frames_in" -v proc="$processed" -v dring="$dropped_ring" -v dstop="$dropped_stop" -v miss="$missing" \
     -v rej="$rejected" -v pubf="$publish_fail" -v f50="$f50" -v f99="$f99" -v l50="$l50" -v l99="$l99" \
