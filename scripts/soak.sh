@@ -29,6 +29,8 @@
 #               survey and its log are reused if already there
 #   --frames    length of the simulated survey before it loops (default 600 = 40 s at 15 fps)
 #   --keep      keep the scratch folder
+#   --report    no run: recompute the figures and the verdict of a kept --work folder (give
+#               the same MINUTES and mode; with --lsan the planted-leak check runs again)
 set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -39,6 +41,8 @@ work=""
 frames=600
 keep=0
 rt=0
+report=0
+planted="not checked"
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --valgrind) mode=valgrind ;;
@@ -48,7 +52,8 @@ while [[ $# -gt 0 ]]; do
     --work) work="$2"; shift ;;
     --frames) frames="$2"; shift ;;
     --keep) keep=1 ;;
-    -h|--help) sed -n '2,31p' "$0"; exit 0 ;;
+    --report) report=1 ;;
+    -h|--help) sed -n '2,33p' "$0"; exit 0 ;;
     [0-9]*) minutes="$1" ;;
     *) echo "soak.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
@@ -74,6 +79,9 @@ if [[ "$mode" == lsan ]]; then
   [[ -n "$lsan_lib" ]] || { echo "soak.sh: liblsan.so.0 not found (apt-get install liblsan0)" >&2; exit 2; }
 fi
 
+if [[ $report == 1 && ! -f "$work/out.lcmlog" ]]; then
+  echo "soak.sh: --report needs --work DIR of a kept run (DIR/out.lcmlog)" >&2; exit 2
+fi
 if [[ -z "$work" ]]; then
   work="$(mktemp -d /tmp/seavio_soak.XXXXXX)"
   [[ $keep == 1 ]] || trap 'rm -rf "$work"' EXIT
@@ -82,6 +90,20 @@ mkdir -p "$work"
 seconds=$(awk -v m="$minutes" 'BEGIN { printf "%d", m * 60 }')
 echo "soak: $minutes min, mode $mode$( [[ $rt == 1 ]] && echo ", real-time priorities (--rt)"), work folder $work, load average $(cut -d' ' -f1-3 /proc/loadavg)"
 
+# With --lsan: the same preload must catch a planted leak, or "no leak reported" means nothing.
+if [[ "$mode" == lsan ]]; then
+  if command -v cc >/dev/null; then
+    printf '#include <stdlib.h>\nvoid* volatile keep;\nint main(void) { keep = malloc(4242); keep = 0; return 0; }\n' > "$work/planted_leak.c"
+    cc -O0 -o "$work/planted_leak" "$work/planted_leak.c"
+    env LD_PRELOAD="$lsan_lib" LSAN_OPTIONS="log_path=$work/planted" "$work/planted_leak" || true
+    if grep -q "4242 byte(s) leaked" "$work"/planted.* 2>/dev/null; then planted="caught"; else planted="missed"; fi
+    rm -f "$work"/planted.*
+  else
+    planted="not checked (no cc)"
+  fi
+fi
+
+if [[ $report == 0 ]]; then
 # 1. Survey and its log (reused when present).
 if [[ ! -d "$work/seq/mav0" ]]; then
   echo "soak: simulating a $frames-frame survey"
@@ -109,20 +131,6 @@ case "$mode" in
   lsan) launcher="env LD_PRELOAD=$lsan_lib LSAN_OPTIONS=log_path=$work/lsan" ;;
   *) launcher="" ;;
 esac
-
-# With --lsan: the same preload must catch a planted leak, or "no leak reported" means nothing.
-planted="not checked"
-if [[ "$mode" == lsan ]]; then
-  if command -v cc >/dev/null; then
-    printf '#include <stdlib.h>\nvoid* volatile keep;\nint main(void) { keep = malloc(4242); keep = 0; return 0; }\n' > "$work/planted_leak.c"
-    cc -O0 -o "$work/planted_leak" "$work/planted_leak.c"
-    env LD_PRELOAD="$lsan_lib" LSAN_OPTIONS="log_path=$work/planted" "$work/planted_leak" || true
-    if grep -q "4242 byte(s) leaked" "$work"/planted.* 2>/dev/null; then planted="caught"; else planted="missed"; fi
-    rm -f "$work"/planted.*
-  else
-    planted="not checked (no cc)"
-  fi
-fi
 
 # 3. The run, inside a private network namespace. --rt: as root, a network namespace alone
 # (a user namespace, -r, would take away the right to SCHED_FIFO).
@@ -180,6 +188,7 @@ wait $daemon || echo "soak: seaviod exit status $?"
 kill -INT $logger
 wait $logger || true
 '
+fi  # report == 0
 
 # 4. Figures.
 echo
