@@ -251,8 +251,9 @@ pct() {  # pct Q: nearest-rank percentile of the numbers on stdin, "nan" if none
 }
 # window_split JSON OUT: writes "capture_to_publish_ms rival(0/1) seq_gap_before" per frame to OUT
 # and prints, over the window: rival real-time CPU [s], seaviod's wait for a CPU [s], steal [s].
-# A frame counts as disturbed when, in a sampler interval overlapping the second before its
-# publication (its capture, processing and publication), another process's real-time thread
+# A frame counts as disturbed when, in a sampler interval overlapping the 3 s before its
+# publication (its capture, processing and publication, and one sample more: a rival that
+# exits between two samples leaves no trace in the second), another process's real-time thread
 # ran (> 0.05 s CPU) or the hypervisor stole more than 0.1 s of the CPUs: neither happens on
 # the vehicle (soak 4, docs/reliability.md: the bursts of 40-110 ms frames came with one or
 # the other).
@@ -266,7 +267,7 @@ window_split() {
       END {
         j = 1
         for (i = 1; i <= n; i++) {
-          while (j < k && up[j] <= a[i] - 1) j++           # first interval ending after a[i] - 1
+          while (j < k && up[j] <= a[i] - 3) j++           # first interval ending after a[i] - 3
           bad = 0
           for (m = j; m <= k && (m == 1 || up[m - 1] < a[i]); m++)
             if (rv[m] > 0.05 || (m > 1 && st[m] - st[m - 1] > 0.1 * hz)) bad = 1
