@@ -90,6 +90,7 @@ ProfileReport computeProfile(const DaemonOutputLog& log, const ProfileParams& pa
   std::map<std::string, std::vector<double>> stage_values;
   std::vector<double> proc, e2e, interval, refined_e2e;
   const int64_t pub0 = log.poses.empty() ? 0 : log.poses.front().msg.publish_t_ns;
+  r.first_publish_t_ns = pub0;
   // Global mode with the ICP thread: a frame's local pose (FLAG_LOCAL_ONLY) and, later, its
   // refined pose (FLAG_GLOBAL_REFINED, same seq). The frame's latency is the local one's;
   // the refined messages are reported on their own, not as frames.
@@ -140,8 +141,10 @@ ProfileReport computeProfile(const DaemonOutputLog& log, const ProfileParams& pa
     if (f.end_to_end_ms > params.budget_ms) ++r.over_budget;
     proc.push_back(f.processing_ms);
     e2e.push_back(f.end_to_end_ms);
-    if (!same_clock && have_recv)
-      replay_e2e.push_back(static_cast<double>(m.publish_t_ns - m.t_ns - replay_offset_ns) * 1e-6);
+    if (!same_clock && have_recv) {
+      f.capture_to_publish_replay_ms = static_cast<double>(m.publish_t_ns - m.t_ns - replay_offset_ns) * 1e-6;
+      replay_e2e.push_back(f.capture_to_publish_replay_ms);
+    }
     const seavio_lcm::pose_t* prev_ptr = prev_frame;
     prev_frame = &m;
     if (prev_ptr) {
@@ -221,7 +224,9 @@ void printProfile(std::ostream& os, const ProfileReport& r) {
   if (r.refined_poses > 0)
     os << "note: " << r.refined_poses << " refined poses (FLAG_GLOBAL_REFINED after the frame's FLAG_LOCAL_ONLY pose)\n"
           "      are not frames: refined_end_to_end is their receipt to publication\n";
-  else if (r.end_to_end_basis != "capture_to_publish")
+  // Only without receipt stamps (version 1 poses): with them, the note above already says
+  // what end_to_end is, and this one contradicted it.
+  if (r.end_to_end_basis == "processing (lower bound)")
     os << "note: capture stamps are not on the daemon clock (replayed dataset), so per-frame end_to_end is the\n"
           "      processing time; the daemon's end_to_end stage (acquisition to publish) includes queueing\n";
   os << "\nframes over the " << fmt("%.1f", r.params.budget_ms) << " ms budget: " << r.over_budget << " of "
@@ -290,6 +295,13 @@ void writeProfileJson(const std::string& path, const ProfileReport& r) {
   for (std::size_t i = 0; i < r.frames.size(); ++i) out << (i ? ", " : "") << num(r.frames[i].processing_ms);
   out << "],\n  \"end_to_end_ms\": [";
   for (std::size_t i = 0; i < r.frames.size(); ++i) out << (i ? ", " : "") << num(r.frames[i].end_to_end_ms);
+  out << "],\n  \"capture_to_publish_replay_ms\": [";
+  for (std::size_t i = 0; i < r.frames.size(); ++i) out << (i ? ", " : "") << num(r.frames[i].capture_to_publish_replay_ms);
+  // Publication times on the daemon clock let a soak relate each frame to what else the
+  // machine ran at that moment (scripts/soak.sh: frames published while another real-time
+  // job ran are set apart).
+  out << "],\n  \"first_publish_t_ns\": " << r.first_publish_t_ns << ",\n  \"publish_s\": [";
+  for (std::size_t i = 0; i < r.frames.size(); ++i) out << (i ? ", " : "") << fmt("%.3f", r.frames[i].publish_s);
   out << "]\n}\n";
   if (!out) throw std::runtime_error(path + ": write failed");
 }

@@ -14,6 +14,7 @@
 /// the per-frame end-to-end figure is receive to publish (version 2 poses), or the estimator
 /// time as a lower bound (version 1 poses).
 #include <cstdint>
+#include <limits>
 #include <ostream>
 #include <string>
 #include <vector>
@@ -37,6 +38,9 @@ struct FrameTiming {
   double publish_s = 0;         ///< publication time since the first pose [s]
   double processing_ms = 0;     ///< estimator wall time [ms]
   double end_to_end_ms = 0;     ///< capture (or receive) to publish [ms], see end_to_end_basis
+  /// Capture to publish with the stamp put on the daemon clock by the replay's offset [ms]
+  /// (see capture_to_publish_replay); NaN when the log does not allow it.
+  double capture_to_publish_replay_ms = std::numeric_limits<double>::quiet_NaN();
   /// This frame's stage times [ms] in the order of ProfileReport::stages; 0 where the frame
   /// lacks the stage.
   std::vector<double> stage_ms;
@@ -52,6 +56,7 @@ struct ProfileParams {
 struct ProfileReport {
   ProfileParams params;
   std::vector<FrameTiming> frames;          ///< in log order
+  int64_t first_publish_t_ns = 0;           ///< the first pose's publish_t_ns (daemon clock)
   std::vector<LatencyStats> per_frame;      ///< "process", "publish_interval", "end_to_end"
   /// When they apply: "capture_to_publish_replay" (stamps of a real-time replay put on the
   /// daemon clock) and "refined_end_to_end" (global mode's second, refined pose per frame).

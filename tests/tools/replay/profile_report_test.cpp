@@ -94,6 +94,10 @@ TEST(ProfileReport, StampsOnAnotherClockFallBackToProcessingTime) {
   EXPECT_EQ(r.end_to_end_basis, "processing (lower bound)");
   EXPECT_NEAR(r.per_frame.at(2).max_ms, 50.0, 1e-9);
   EXPECT_EQ(r.over_budget, 0u);
+  std::ostringstream out;
+  printProfile(out, r);
+  EXPECT_NE(out.str().find("end_to_end is the\n      processing time"), std::string::npos) << out.str();
+  EXPECT_EQ(out.str().find("from the daemon's receipt"), std::string::npos) << out.str();
 }
 
 TEST(ProfileReport, WritesJsonAndPlot) {
@@ -105,6 +109,10 @@ TEST(ProfileReport, WritesJsonAndPlot) {
   const std::string json((std::istreambuf_iterator<char>(j)), std::istreambuf_iterator<char>());
   EXPECT_NE(json.find("\"over_budget\": 34"), std::string::npos);
   EXPECT_NE(json.find("\"seq_gaps\": 2"), std::string::npos);
+  // Frame k is published k + 1 ms after its capture, captures 66.667 ms apart: publication
+  // times since the first are 0, 66.667 + 1 and 133.333 + 2 ms.
+  EXPECT_NE(json.find("\"publish_s\": [0.000, 0.068, 0.135, "), std::string::npos) << json;
+  EXPECT_NE(json.find("\"capture_to_publish_replay_ms\": [null, null, "), std::string::npos) << json;
   const cv::Mat png = cv::imread(dir.file("p.png"));
   ASSERT_FALSE(png.empty());
   EXPECT_EQ(png.cols, 1200);
@@ -168,6 +176,19 @@ TEST(ProfileReport, PerStageFiguresComeFromVersion2Poses) {
   printProfile(out, r);
   EXPECT_NE(out.str().find("per stage"), std::string::npos) << out.str();
   EXPECT_NE(out.str().find("receive_to_publish"), std::string::npos);
+  // A real-time replay: every frame's receive - stamp is the same, so capture to publish
+  // with the replay offset equals receive to publish, frame by frame, also in the JSON.
+  ASSERT_EQ(r.frames.size(), 50u);
+  for (const FrameTiming& f : r.frames) EXPECT_NEAR(f.capture_to_publish_replay_ms, f.end_to_end_ms, 1e-6);
+  EXPECT_EQ(r.first_publish_t_ns, 5'000'004'500'000LL);  // frame 0: receipt + 4 ms queue + 0.5 ms
+  writeProfileJson(dir.file("s.json"), r);
+  std::ifstream j(dir.file("s.json"));
+  const std::string json((std::istreambuf_iterator<char>(j)), std::istreambuf_iterator<char>());
+  EXPECT_NE(json.find("\"capture_to_publish_replay_ms\": [4.5, "), std::string::npos) << json;
+  EXPECT_NE(json.find("\"first_publish_t_ns\": 5000004500000,"), std::string::npos) << json;
+  // The console note names the basis in use, and only that one.
+  EXPECT_NE(out.str().find("end_to_end runs\n      from the daemon's receipt"), std::string::npos) << out.str();
+  EXPECT_EQ(out.str().find("end_to_end is the\n      processing time"), std::string::npos) << out.str();
 }
 
 TEST(ProfileReport, WindowKeepsThePosesPublishedInsideIt) {
