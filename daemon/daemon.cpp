@@ -77,6 +77,14 @@ Daemon::~Daemon() { stop(); }
 
 bool Daemon::start() {
   if (running_) return true;
+  // spdlog builds its registry and default logger on the first log call. Built here, on the
+  // thread that starts every daemon and driver thread, thread creation orders it before any
+  // of their log calls. Left to the first of the workers to log, the others' reads of the
+  // logger were ordered only by the guard check of a function-local static inside
+  // libspdlog, which is not instrumented: ThreadSanitizer reported a data race in
+  // spdlog::logger::log_ for every in-process daemon test (issue 9). seaviod's main() sets
+  // its stderr logger before this; then this call only returns that logger.
+  spdlog::default_logger_raw();
   if (!camera_ || !processor_) {
     error_ = "daemon needs a camera source and a frame processor";
     return false;

@@ -250,37 +250,11 @@ ReadStatus AravisCameraSource::read(StereoFrame& out, std::chrono::milliseconds 
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   Impl& im = *impl_;
   while (true) {
-    const auto now = std::chrono::steady_clock::now();
-    // Reopen cameras that went silent or lost control (a power cycle, a cable pulled),
-    // off this thread so `timeout` is honoured while GVCP retries run.
-    for (int i = 0; i < im.n; ++i) {
-      Camera& c = im.cams[i];
-      if (c.job) {
-        bool finished = false;
-        {
-          std::lock_guard<std::mutex> lock(c.job->m);
-          finished = c.job->done;
-          if (finished && c.job->ok) {
-            c.adopt(c.job->result);
-            ++faults_.reconnects;
-            spdlog::warn("aravis: camera '{}' reconnected ({} so far)", c.id, faults_.reconnects);
-          } else if (finished) {
-            error_ = c.job->error;
-            spdlog::warn("aravis: reconnect failed: {}", error_);
-            c.last_frame = now;  // retry after another reconnect_after_ms
-          }
-        }
-        // Released only after the lock: the job owns the mutex the guard would unlock.
-        if (finished) c.job.reset();
-        continue;
-      }
-      const bool silent = now - c.last_frame > std::chrono::milliseconds(cfg_.reconnect_after_ms);
-      if (c.control_lost || silent) {
-        spdlog::warn("aravis: camera '{}' {}, reconnecting", c.id, c.control_lost ? "lost control" : "silent");
-        c.startReconnect(cfg_, cfg_.width);
-      }
-    }
-    // Collect what arrived.
+    // Collect what arrived first, then judge silence: when this thread comes back late (a
+    // slow start, a loaded machine, a sanitizer build), frames already waiting in a stream's
+    // queue must count, or a live camera is declared silent and torn down (issue 9: under
+    // TSan the end-to-end runs began with such a reconnect at the camera thread's first read,
+    // which came more than reconnect_after_ms after the camera was opened).
     auto handle = [&](Camera& c, ArvBuffer* b) {
       c.last_frame = std::chrono::steady_clock::now();
       const uint64_t fid = arv_buffer_get_frame_id(b);
@@ -330,6 +304,36 @@ ReadStatus AravisCameraSource::read(StereoFrame& out, std::chrono::milliseconds 
       while (ArvBuffer* b = arv_stream_try_pop_buffer(c.cam.stream)) {
         got_any = true;
         handle(c, b);
+      }
+    }
+    const auto now = std::chrono::steady_clock::now();
+    // Reopen cameras that went silent or lost control (a power cycle, a cable pulled),
+    // off this thread so `timeout` is honoured while GVCP retries run.
+    for (int i = 0; i < im.n; ++i) {
+      Camera& c = im.cams[i];
+      if (c.job) {
+        bool finished = false;
+        {
+          std::lock_guard<std::mutex> lock(c.job->m);
+          finished = c.job->done;
+          if (finished && c.job->ok) {
+            c.adopt(c.job->result);
+            ++faults_.reconnects;
+            spdlog::warn("aravis: camera '{}' reconnected ({} so far)", c.id, faults_.reconnects);
+          } else if (finished) {
+            error_ = c.job->error;
+            spdlog::warn("aravis: reconnect failed: {}", error_);
+            c.last_frame = now;  // retry after another reconnect_after_ms
+          }
+        }
+        // Released only after the lock: the job owns the mutex the guard would unlock.
+        if (finished) c.job.reset();
+        continue;
+      }
+      const bool silent = now - c.last_frame > std::chrono::milliseconds(cfg_.reconnect_after_ms);
+      if (c.control_lost || silent) {
+        spdlog::warn("aravis: camera '{}' {}, reconnecting", c.id, c.control_lost ? "lost control" : "silent");
+        c.startReconnect(cfg_, cfg_.width);
       }
     }
     // Pair.
