@@ -38,7 +38,13 @@ case "$mode" in
     # scheduling, global thread, faults, end to end); the executables not built here leave a
     # placeholder test <name>_NOT_BUILT in ctest, which is what -E leaves out.
     targets=(--target test_daemon test_drivers_lcm seaviod seavio)
-    filter=(-E "_NOT_BUILT$")
+    # SeaviodE2E.AravisStereoAndSerialImuGivePosesAsAccurateAsSeavioRun is left out here and
+    # only here (it runs in the Release and ASan phases): it is an accuracy test that needs the
+    # daemon to keep up with 5 fps stereo, and under TSan seaviod processes ~10 of ~100 frames
+    # on a 2-core machine. Its threads (Aravis cameras, serial IMU, rings, workers, LCM) are the
+    # same ones SeaviodE2E.SurvivesCameraRestartImuSilenceAndSerialGarbageCountingEach drives
+    # under TSan, with faults on top.
+    filter=(-E "_NOT_BUILT$|SeaviodE2E.AravisStereoAndSerialImuGivePosesAsAccurateAsSeavioRun")
     # ignore_noninstrumented_modules: memcpy/memset/recv that uninstrumented libraries
     # (Aravis' GVSP stream and fake-camera threads, GLib) call through TSan's interceptors no
     # longer write shadow memory. Every GVSP packet Aravis copied into a frame buffer was

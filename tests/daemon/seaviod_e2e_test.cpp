@@ -658,10 +658,11 @@ TEST(SeaviodE2E, AravisStereoAndSerialImuGivePosesAsAccurateAsSeavioRun) {
   EXPECT_GT(st.frames_processed, 0);
   EXPECT_GT(st.imu_samples, 0);
   // The feeder paces its samples on the real clock, so some status period saw about the
-  // sequence's IMU rate; half of it leaves room for a period that straddles the start.
+  // sequence's IMU rate; a quarter of it leaves room for a period that straddles the start
+  // and for a sanitizer build's slower reader, and still fails if the stream stalls.
   const double imu_nominal_hz =
       seq.ds.imu.size() > 1 ? 1e9 / static_cast<double>(seq.ds.imu[1].t_ns - seq.ds.imu[0].t_ns) : 0.0;
-  EXPECT_GT(max_imu_hz, 0.5 * imu_nominal_hz) << "nominal IMU rate " << imu_nominal_hz << " Hz";
+  EXPECT_GT(max_imu_hz, 0.25 * imu_nominal_hz) << "nominal IMU rate " << imu_nominal_hz << " Hz";
   EXPECT_GT(max_imu_hz, 0);
   EXPECT_EQ(st.camera_reconnects, 0);
   // Latency from the capture stamp to publication, as the daemon measures it, and from the
