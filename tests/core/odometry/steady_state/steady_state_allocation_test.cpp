@@ -24,6 +24,7 @@
 #endif
 #endif
 
+#if !defined(SEAVIO_SANITIZED)
 namespace {
 std::atomic<bool> g_counting{false};
 std::atomic<long> g_allocations{0};
@@ -32,7 +33,6 @@ inline void count() {
 }
 }  // namespace
 
-#if !defined(SEAVIO_SANITIZED)
 // glibc's allocator under its internal names; the replacements below count and forward to it,
 // so glibc's own free() releases every block (glibc manual, "Replacing malloc").
 extern "C" {
