@@ -78,19 +78,19 @@ class OdometryProcessor : public FrameProcessor {
     f.seq = frame.seq;
     f.detector_threshold = odo_.detectorThreshold();
     StageTimer timer(now_);
-    frontend.rectify(frame, ws_);
-    const cv::Mat& left_rect = ws_.left_rect;
-    const cv::Mat& right_rect = ws_.right_rect;
-    f.times.rectify_ms = timer.lap_ms();
-    // Frontend::detect is const; each side has its own SURF workspace, so both images may be
-    // described at once.
+    // Frontend's rectifySide and detect are const; each side has its own image, filter and
+    // SURF buffers in ws_, so the right image is rectified and described on the worker while
+    // the left one is on this thread (rectify_ms is then the left image's).
     const double threshold = f.detector_threshold;
     // The right image's job reads its inputs from here (set once per frame: posting it
     // allocates nothing, issue 8).
-    right_ = RightInput{&right_rect, threshold, &f.right};
+    right_ = RightInput{&frame, threshold, &f.right};
     const bool posted = pool_->post(right_job_);
     try {
-      frontend.detect(left_rect, threshold, ws_.surf_left, f.left);
+      frontend.rectifySide(0, frame, ws_);
+      if (!posted) frontend.rectifySide(1, frame, ws_);
+      f.times.rectify_ms = timer.lap_ms();
+      frontend.detect(ws_.left_rect, threshold, ws_.surf_left, f.left);
     } catch (...) {
       // The job refers to `f` and the images: it must finish before they go out of scope.
       if (posted) {
@@ -105,7 +105,7 @@ class OdometryProcessor : public FrameProcessor {
       right_job_.wait();  // rethrows the worker's exception, if any
       ++parallel_frames_;
     } else {
-      frontend.detect(right_rect, threshold, ws_.surf_right, f.right);
+      frontend.detect(ws_.right_rect, threshold, ws_.surf_right, f.right);
     }
     f.times.features_ms = timer.lap_ms();
     frontend.matchStereo(f.left, f.right, ws_, f.stereo);
@@ -114,17 +114,19 @@ class OdometryProcessor : public FrameProcessor {
 
   /// What the right image's job works on this frame.
   struct RightInput {
-    const cv::Mat* image = nullptr;
+    const StereoFrame* frame = nullptr;
     double threshold = 0;
     features::Features* out = nullptr;
   };
 
   odometry::Odometry odo_;
   RightInput right_;
-  /// Detects right_ on the worker; declared before pool_, so the pool (joined first) never
-  /// outlives it. Captures only `this`: the processor is not movable.
-  RecurringJob right_job_{
-      [this] { odo_.frontend().detect(*right_.image, right_.threshold, ws_.surf_right, *right_.out); }};
+  /// Rectifies and detects right_ on the worker; declared before pool_, so the pool (joined
+  /// first) never outlives it. Captures only `this`: the processor is not movable.
+  RecurringJob right_job_{[this] {
+    odo_.frontend().rectifySide(1, *right_.frame, ws_);
+    odo_.frontend().detect(ws_.right_rect, right_.threshold, ws_.surf_right, *right_.out);
+  }};
   std::unique_ptr<WorkerPool> pool_;  ///< one persistent worker; null when sequential
   odometry::FrontendWorkspace ws_;    ///< rectified images and filter buffers, reused across frames
   odometry::FrameFeatures spare_;     ///< an earlier frame's buffers, refilled each frame

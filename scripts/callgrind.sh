@@ -5,7 +5,9 @@
 # stage with its heap allocations (calls of malloc, calloc, realloc, posix_memalign,
 # aligned_alloc, memalign: operator new and cv::fastMalloc end in these), then the top
 # functions of each (callgrind_annotate).
-#   scripts/callgrind.sh                     all stages: surf_detect surf_describe ransac icp frame frame2
+#   scripts/callgrind.sh                     all stages: surf_detect surf_describe ransac icp rectify
+#                                            rectify_cv frame frame2 (rectify: our remap of one
+#                                            640x480 pair; rectify_cv: cv::remap, same maps)
 #   scripts/callgrind.sh ransac icp          only these
 #   scripts/callgrind.sh steady steady2      allocations and Ir per frame in steady state: the
 #                                            frame (frame2) path over STEADY_FRAMES consecutive
@@ -20,7 +22,7 @@ out=${OUT:-callgrind-results}
 top=${TOP:-8}
 command -v valgrind >/dev/null || { echo "callgrind.sh: valgrind not installed (apt-get install valgrind)" >&2; exit 1; }
 stages=("$@")
-[ ${#stages[@]} -gt 0 ] || stages=(surf_detect surf_describe ransac icp frame frame2)
+[ ${#stages[@]} -gt 0 ] || stages=(surf_detect surf_describe ransac icp rectify rectify_cv frame frame2)
 mkdir -p "$out"
 
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null

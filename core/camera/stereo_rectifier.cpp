@@ -6,6 +6,8 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "core/camera/remap_bilinear.hpp"
+
 namespace seavio::camera {
 namespace {
 
@@ -101,8 +103,13 @@ std::optional<StereoRectifier> StereoRectifier::create(const StereoCalibration& 
 
 void StereoRectifier::rectify(const cv::Mat& left_raw, const cv::Mat& right_raw, cv::Mat& left_rect,
                               cv::Mat& right_rect) const {
-  cv::remap(left_raw, left_rect, map0a_, map0b_, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
-  cv::remap(right_raw, right_rect, map1a_, map1b_, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
+  rectifyOne(0, left_raw, left_rect);
+  rectifyOne(1, right_raw, right_rect);
+}
+
+void StereoRectifier::rectifyOne(int cam, const cv::Mat& raw, cv::Mat& rect) const {
+  // Ours, not cv::remap: the same bytes without cv::remap's per-call tile buffers (issue 8).
+  remapBilinear(raw, rect, remapPixels(cam), remapFractions(cam));
 }
 
 Eigen::Vector2d StereoRectifier::rectifyPoint(int cam, const Eigen::Vector2d& uv_raw) const {

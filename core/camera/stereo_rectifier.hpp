@@ -22,9 +22,17 @@ class StereoRectifier {
   const RectifiedRig& rig() const { return rig_; }
   const StereoCalibration& calibration() const { return calib_; }
 
-  /// Remaps a raw pair into the rectified pair (bilinear). Output buffers are reused.
+  /// Remaps a raw pair into the rectified pair (bilinear; remapBilinear, the bytes of
+  /// cv::remap). Output buffers are reused: no allocation once they have the image size.
   void rectify(const cv::Mat& left_raw, const cv::Mat& right_raw, cv::Mat& left_rect,
                cv::Mat& right_rect) const;
+  /// Camera `cam`'s (0/1) fixed-point remap tables (cv::convertMaps' CV_16SC2 source pixel
+  /// and CV_16UC1 fraction index), for comparison with cv::remap in benchmarks.
+  const cv::Mat& remapPixels(int cam) const { return cam == 0 ? map0a_ : map1a_; }
+  const cv::Mat& remapFractions(int cam) const { return cam == 0 ? map0b_ : map1b_; }
+  /// One image of camera `cam` (0 left, 1 right): `rectify` is this for both. Lets the two
+  /// sides run on different threads.
+  void rectifyOne(int cam, const cv::Mat& raw, cv::Mat& rect) const;
   /// Raw distorted pixel of camera `cam` (0/1) -> rectified pixel.
   Eigen::Vector2d rectifyPoint(int cam, const Eigen::Vector2d& uv_raw) const;
 

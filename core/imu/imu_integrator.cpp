@@ -15,16 +15,19 @@ ImuPropagation propagate(const NavState& start, const Matrix9d& start_covariance
   const int64_t t0 = start.t_ns;
   if (t_end_ns <= t0) return out;
 
-  // Knots: start, every sample strictly inside, end.
-  std::vector<int64_t> knots;
-  knots.reserve(samples.size() + 2);
-  knots.push_back(t0);
-  for (const ImuSample& s : samples)
-    if (s.t_ns > t0 && s.t_ns < t_end_ns) knots.push_back(s.t_ns);
-  knots.push_back(t_end_ns);
-  for (std::size_t i = 1; i < knots.size(); ++i)
-    out.largest_gap_s = std::max(out.largest_gap_s, 1e-9 * static_cast<double>(knots[i] - knots[i - 1]));
-  out.samples_used = static_cast<int>(knots.size()) - 2;
+  // Knots: start, every sample strictly inside, end. Walked in place rather than collected
+  // (this runs every frame; issue 8: no allocation on the per-frame path).
+  const auto inside = [&](const ImuSample& s) { return s.t_ns > t0 && s.t_ns < t_end_ns; };
+  {
+    int64_t last = t0;
+    for (const ImuSample& s : samples) {
+      if (!inside(s)) continue;
+      out.largest_gap_s = std::max(out.largest_gap_s, 1e-9 * static_cast<double>(s.t_ns - last));
+      last = s.t_ns;
+      ++out.samples_used;
+    }
+    out.largest_gap_s = std::max(out.largest_gap_s, 1e-9 * static_cast<double>(t_end_ns - last));
+  }
 
   Eigen::Matrix3d R = start.T_W_B.rotation();
   Eigen::Vector3d v = start.v_W;
@@ -39,10 +42,15 @@ ImuPropagation propagate(const NavState& start, const Matrix9d& start_covariance
     P.block<3, 3>(3, 3) += Eigen::Matrix3d::Identity() * std::pow(kGravity_m_s2 * dt, 2);
     P.block<3, 3>(6, 6) += Eigen::Matrix3d::Identity() * std::pow(0.5 * kGravity_m_s2 * dt * dt, 2);
   } else {
-    ImuSample prev = sampleAt(samples, knots.front());
-    for (std::size_t i = 1; i < knots.size(); ++i) {
-      const ImuSample next = sampleAt(samples, knots[i]);
-      const double dt = 1e-9 * static_cast<double>(knots[i] - knots[i - 1]);
+    ImuSample prev = sampleAt(samples, t0);
+    int64_t knot_prev = t0;
+    std::size_t next_sample = 0;  // first sample not yet taken as a knot
+    for (bool end = false; !end;) {
+      while (next_sample < samples.size() && !inside(samples[next_sample])) ++next_sample;
+      end = next_sample == samples.size();
+      const int64_t knot = end ? t_end_ns : samples[next_sample++].t_ns;
+      const ImuSample next = sampleAt(samples, knot);
+      const double dt = 1e-9 * static_cast<double>(knot - knot_prev);
       const Eigen::Vector3d w = 0.5 * (prev.gyro_rad_s + next.gyro_rad_s) - start.gyro_bias_rad_s;
       const Eigen::Vector3d a = 0.5 * (prev.accel_m_s2 + next.accel_m_s2) - start.accel_bias_m_s2;
       const Eigen::Vector3d dtheta = w * dt;
@@ -61,7 +69,7 @@ ImuPropagation propagate(const NavState& start, const Matrix9d& start_covariance
       G.block<3, 3>(3, 3) = R_mid * dt;
       G.block<3, 3>(6, 3) = 0.5 * R_mid * dt * dt;
       // Continuous white noise -> discrete; the bias random walk over the interval adds to it.
-      const double elapsed_s = 1e-9 * static_cast<double>(knots[i] - t0);
+      const double elapsed_s = 1e-9 * static_cast<double>(knot - t0);
       const double sg2 = noise.gyroscope_noise_density * noise.gyroscope_noise_density / dt +
                          std::pow(noise.gyroscope_random_walk, 2) * elapsed_s;
       const double sa2 = noise.accelerometer_noise_density * noise.accelerometer_noise_density / dt +
@@ -74,6 +82,7 @@ ImuPropagation propagate(const NavState& start, const Matrix9d& start_covariance
       v += acc_W * dt;
       R = R * dR;
       prev = next;
+      knot_prev = knot;
     }
   }
   // Re-orthonormalise against round-off over long propagations.

@@ -123,14 +123,26 @@ void FrameMap::insert(MapFrame frame) {
 }
 
 std::vector<const MapFrame*> FrameMap::selectNear(const Eigen::Vector3d& position_W) const {
-  std::vector<std::pair<double, const MapFrame*>> found;
+  std::vector<const MapFrame*> out;
+  selectNear(position_W, out);
+  return out;
+}
+
+void FrameMap::selectNear(const Eigen::Vector3d& position_W, std::vector<const MapFrame*>& out) const {
+  out.clear();
   const double r2 = params_.selection_radius_m * params_.selection_radius_m;
+  const auto d2 = [&](const MapFrame* f) { return (f->T_W_R0.translation() - position_W).squaredNorm(); };
   forEachNearby(position_W, [&](uint32_t idx) {
-    const MapFrame& f = frames_[idx];
-    const double d2 = (f.T_W_R0.translation() - position_W).squaredNorm();
-    if (d2 <= r2) found.emplace_back(d2, &f);
+    if (d2(&frames_[idx]) <= r2) out.push_back(&frames_[idx]);
   });
-  return nearestFirst(found, static_cast<std::size_t>(std::max(params_.max_selected_frames, 0)));
+  // nearestFirst's order without its (distance, frame) pairs: the distances are recomputed
+  // (the same arithmetic, so the same order), which saves a buffer.
+  std::sort(out.begin(), out.end(), [&](const MapFrame* a, const MapFrame* b) {
+    const double da = d2(a), db = d2(b);
+    return da < db || (da == db && a->id < b->id);
+  });
+  const std::size_t cap = static_cast<std::size_t>(std::max(params_.max_selected_frames, 0));
+  if (out.size() > cap) out.resize(cap);
 }
 
 std::vector<const MapFrame*> FrameMap::nearestFirst(std::vector<std::pair<double, const MapFrame*>>& found,

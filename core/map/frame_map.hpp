@@ -83,6 +83,9 @@ class FrameMap {
 
   /// Keyframes within the selection radius of `position_W`, nearest first, capped.
   std::vector<const MapFrame*> selectNear(const Eigen::Vector3d& position_W) const;
+  /// The same into `out` (cleared first): with a caller-owned `out`, no allocation once it has
+  /// grown to the cap (issue 8: this runs every frame in global mode).
+  void selectNear(const Eigen::Vector3d& position_W, std::vector<const MapFrame*>& out) const;
   /// Every keyframe within `radius_m` of `position_W` (any radius: the grid cells it spans
   /// are visited), nearest first, uncapped. For the re-observation search, whose radius grows
   /// with the drift since the old ground was mapped.

@@ -337,17 +337,20 @@ void Frontend::rectify(const StereoFrame& frame, cv::Mat& left_rect, cv::Mat& ri
 }
 
 void Frontend::rectify(const StereoFrame& frame, FrontendWorkspace& ws) const {
-  rectifier_.rectify(frame.left, frame.right, ws.left_rect, ws.right_rect);
+  rectifySide(0, frame, ws);
+  rectifySide(1, frame, ws);
+}
+
+void Frontend::rectifySide(int cam, const StereoFrame& frame, FrontendWorkspace& ws) const {
+  cv::Mat& rect = cam == 0 ? ws.left_rect : ws.right_rect;
+  SnowFilter& snow = cam == 0 ? ws.snow : ws.snow_right;
+  rectifier_.rectifyOne(cam, cam == 0 ? frame.left : frame.right, rect);
   if (snow_.enabled) {
-    if (ws.snow.params().enabled != snow_.enabled || ws.snow.params().kernel_px != snow_.kernel_px)
-      ws.snow = SnowFilter(snow_);
-    ws.snow.apply(ws.left_rect, ws.left_rect);
-    ws.snow.apply(ws.right_rect, ws.right_rect);
+    if (snow.params().enabled != snow_.enabled || snow.params().kernel_px != snow_.kernel_px) snow = SnowFilter(snow_);
+    snow.apply(rect, rect);
   }
-  if (illumination_.enabled) {
-    normalizeIllumination(ws.left_rect, ws.left_rect, illumination_, ws.illumination);
-    normalizeIllumination(ws.right_rect, ws.right_rect, illumination_, ws.illumination);
-  }
+  if (illumination_.enabled)
+    normalizeIllumination(rect, rect, illumination_, cam == 0 ? ws.illumination : ws.illumination_right);
 }
 
 features::Features Frontend::detect(const cv::Mat& rectified, double threshold) const {

@@ -120,6 +120,9 @@ struct FrontendWorkspace {
   cv::Mat left_rect, right_rect;
   SnowFilter snow;  ///< set to the frontend's parameters on first use
   IlluminationScratch illumination;
+  /// The right image's filter buffers, so that its side can be rectified on another thread.
+  SnowFilter snow_right;
+  IlluminationScratch illumination_right;
   matching::StereoMatchWorkspace stereo;
   /// SURF's buffers, one per image side: the daemon describes left and right at once.
   features::SurfWorkspace surf_left, surf_right;
@@ -138,6 +141,9 @@ class Frontend {
   void rectify(const StereoFrame& frame, cv::Mat& left_rect, cv::Mat& right_rect) const;
   /// The same into `ws.left_rect` and `ws.right_rect`, filters' buffers from `ws`.
   void rectify(const StereoFrame& frame, FrontendWorkspace& ws) const;
+  /// One side of the above: camera `cam` (0 left, 1 right) of `frame` into its image and
+  /// filter buffers of `ws`. The two sides share nothing, so they may run at once.
+  void rectifySide(int cam, const StereoFrame& frame, FrontendWorkspace& ws) const;
   /// Features of one rectified image.
   features::Features detect(const cv::Mat& rectified, double threshold) const;
   /// The same with SURF's buffers in `surf` (one per thread calling at once).

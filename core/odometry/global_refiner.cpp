@@ -64,11 +64,12 @@ GlobalCorrection GlobalRefiner::correct(const matching::StereoFeatures& features
   c.frame_id = frame_id;
   c.t_ns = t_ns;
   Eigen::Isometry3d T_W_R0 = T_W_R0_local;
-  auto selected = map_.selectNear(T_W_R0.translation());
+  std::vector<const map::MapFrame*>& selected = selected_;  // kept across frames (issue 8)
+  map_.selectNear(T_W_R0.translation(), selected);
   // After a re-observation the frame may have moved by metres: ICP's model is the map
   // around where the frame now is.
   if (correctFromRevisit(features, selected, t_ns, pose_covariance, rng, T_W_R0, c))
-    selected = map_.selectNear(T_W_R0.translation());
+    map_.selectNear(T_W_R0.translation(), selected);
   // Registering against frames just behind us only re-measures the motion the tensor
   // already measured better; the map bounds the drift when the survey comes back over
   // older ground (paper III-D), so ICP runs when the selection holds such frames.

@@ -169,6 +169,7 @@ class GlobalRefiner {
   NowNsFn now_;
   geometry::QuadrifocalRansac ransac_;
   map::FrameMap map_;
+  std::vector<const map::MapFrame*> selected_;  ///< correct()'s map selection, reused per frame
   std::unordered_map<uint64_t, RevisitFrame> revisit_frames_;  ///< by map keyframe id
   Eigen::Vector3d last_revisit_position_ = Eigen::Vector3d::Constant(1e300);
   int revisit_corrections_ = 0;

@@ -374,7 +374,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   r.times.tensor_ms += timer.lap_ms();
 
   // --- III-D/E: ICP against the previous frame (local) or the map near the prediction (global).
-  std::vector<Eigen::Vector3f> data;
+  std::vector<Eigen::Vector3f>& data = work_.cloud;
+  data.clear();
   data.reserve(frame.stereo.points.size());
   for (const auto& sp : frame.stereo.points) data.push_back(sp.p_R0);
   // Global mode: how far the map moved the frame off its odometry. A correction is not
@@ -385,7 +386,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   std::optional<Eigen::Isometry3d> map_delta_W;
   std::optional<GlobalCorrection> inline_revisit;
   if (vision_ok) {
-    std::vector<std::pair<int, int>> seeds;
+    std::vector<std::pair<int, int>>& seeds = work_.seeds;
+    seeds.clear();
     seeds.reserve(ransac.inliers.size());
     if (params_.mode == Mode::kLocal) {
       std::vector<Eigen::Vector3f> model;
@@ -619,8 +621,10 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     if (deferred_) {
       makeGlobalRequest(frame, T_W_R0, r, false);
     } else {
-      refiner_.insertKeyframe(frame.seq, frame.t_ns, T_W_R0, std::move(data), frame.stereo,
-                              pose_covariance_.bottomRightCorner<3, 3>().trace(), false);
+      // The cloud is kept for the next frame: the map gets a copy only when it stores one.
+      refiner_.insertKeyframe(frame.seq, frame.t_ns, T_W_R0,
+                              refiner_.frameMap().wantsKeyframe(T_W_R0) ? data : std::vector<Eigen::Vector3f>{},
+                              frame.stereo, pose_covariance_.bottomRightCorner<3, 3>().trace(), false);
     }
   }
   if (kf_usable) {

@@ -260,6 +260,8 @@ class Odometry {
     std::vector<geometry::QuadMatch> quads;
     geometry::RansacResult ransac;
     MotionRefinementWorkspace refinement;
+    std::vector<Eigen::Vector3f> cloud;     ///< the frame's stereo points for ICP / the map
+    std::vector<std::pair<int, int>> seeds;  ///< ICP's descriptor seeds
   };
   TrackWork work_;
   std::optional<GlobalRequest> pending_request_;  ///< deferred mode, not yet taken

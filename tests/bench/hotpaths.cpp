@@ -1,7 +1,7 @@
 // Fixed-input driver for scripts/callgrind.sh (issue 8): runs ONE hot path once, with
 // callgrind's instrumentation switched on only around it, so the instruction count (Ir) is
 // that of the stage alone and comparable across commits on a noisy machine.
-//   hotpaths surf_detect | surf_describe | ransac | icp | frame | frame2
+//   hotpaths surf_detect | surf_describe | ransac | icp | rectify | rectify_cv | frame | frame2
 // surf_detect: SURF detection + orientation on the 640 x 480 benchmark texture at a fixed
 // threshold (~500 features); surf_describe: the same plus descriptors; ransac: tensor RANSAC
 // + refinement, 100 matches, 30% outliers; icp: 600 points against a 2,600-point model,
@@ -32,6 +32,7 @@
 #endif
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "core/features/surf.hpp"
 #include "core/geometry/quadrifocal_ransac.hpp"
@@ -112,6 +113,36 @@ int icpStage() {
   return 0;
 }
 
+// rectify: StereoRectifier::rectify of one 640 x 480 pair of the clip (our remap, outputs
+// already sized by a first call); rectify_cv: cv::remap on the same maps (same bytes).
+int rectifyStage(bool opencv) {
+  const bench::SurveyClip c = bench::renderClip(2);
+  std::string error;
+  auto rect = camera::StereoRectifier::create(c.calibration, &error);
+  if (!rect) {
+    std::fprintf(stderr, "hotpaths: calibration unusable: %s\n", error.c_str());
+    return 1;
+  }
+  const StereoFrame& f = c.frames[1];
+  cv::Mat l, r;
+  const auto run = [&] {
+    if (opencv) {
+      cv::remap(f.left, l, rect->remapPixels(0), rect->remapFractions(0), cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+                cv::Scalar(0));
+      cv::remap(f.right, r, rect->remapPixels(1), rect->remapFractions(1), cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+                cv::Scalar(0));
+    } else {
+      rect->rectify(f.left, f.right, l, r);
+    }
+  };
+  run();
+  SEAVIO_CG_START();
+  run();
+  SEAVIO_CG_STOP();
+  std::printf("rectify%s: %d x %d pair, mean grey %.2f\n", opencv ? "_cv" : "", l.cols, l.rows, cv::mean(l)[0]);
+  return 0;
+}
+
 // Frames WARMUP .. WARMUP + FRAMES - 1 of a short-plain clip through daemon::OdometryProcessor
 // (global mode, `threads` 1: Odometry::process, 2: right image on the worker), only those
 // frames instrumented; with `dump_each`, one callgrind dump per frame (steady, steady2), else
@@ -157,9 +188,12 @@ int main(int argc, char** argv) {
   if (stage == "surf_describe") return surf(true);
   if (stage == "ransac") return ransac();
   if (stage == "icp") return icpStage();
+  if (stage == "rectify") return rectifyStage(false);
+  if (stage == "rectify_cv") return rectifyStage(true);
   if (stage == "frame") return frames(1, 7, 1, false);
   if (stage == "frame2") return frames(2, 7, 1, false);
   std::fprintf(stderr,
-               "usage: hotpaths surf_detect|surf_describe|ransac|icp|frame|frame2|steady|steady2 [WARMUP [FRAMES]]\n");
+               "usage: hotpaths surf_detect|surf_describe|ransac|icp|rectify|rectify_cv|frame|frame2|steady|steady2 "
+               "[WARMUP [FRAMES]]\n");
   return 2;
 }
