@@ -109,12 +109,12 @@ struct OdometryParams {
   /// which the bias learnt and the gyro prior then put into the attitude (2.5 mrad/s of pitch on
   /// short-plain seed 23). 1 = learn all of it; 0 = vision learns the heading rate only and the
   /// tilt rates come from gravity (gyro_bias_gravity_window_s) or stay at the still start's.
-  double gyro_bias_vision_tilt_weight = 1.0;
+  double gyro_bias_vision_tilt_weight = 0.0;
   /// Tilt rates of the gyro bias from gravity (core/imu/gravity_bias_observer.hpp): the change,
   /// from one pair of windows of this length [s] to the next, of the accelerometer's specific
   /// force against vision's acceleration and gravity, in the body frame (a constant
   /// accelerometer bias cancels). 0 = off.
-  double gyro_bias_gravity_window_s = 0.0;
+  double gyro_bias_gravity_window_s = 2.0;
   double gyro_bias_gravity_gain = 0.2;          ///< fraction of each measured tilt rate applied
   double gyro_bias_gravity_max_turn_rad = 0.05; ///< heading change that stops a comparison [rad]
   /// The accelerometer bias is not estimated: while coasting its whole spread counts (the

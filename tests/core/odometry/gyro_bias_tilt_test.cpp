@@ -77,6 +77,8 @@ TEST(GyroBiasTilt, AVisualPitchRateIsNotLearntIntoTheAttitudeWithGravityAsTheTil
   // GIVEN the earlier update (all three axes from the visual residual) and the new one
   // (heading from vision, tilt rates from gravity over 2 s windows)
   OdometryParams old_params;
+  old_params.gyro_bias_vision_tilt_weight = 1.0;
+  old_params.gyro_bias_gravity_window_s = 0.0;
   OdometryParams new_params;
   new_params.gyro_bias_vision_tilt_weight = 0.0;
   new_params.gyro_bias_gravity_window_s = 2.0;
