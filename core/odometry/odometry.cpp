@@ -35,6 +35,15 @@ void accumulate(Matrix6d& absolute, const Matrix6d& relative, const Eigen::Matri
   absolute += J * relative * J.transpose();
 }
 
+/// The visual gyro-bias residual (body frame) with its tilt part, perpendicular to gravity,
+/// weighted by `tilt_weight` (OdometryParams::gyro_bias_vision_tilt_weight); the heading part,
+/// about gravity, is what the visual rotation observes without the pitch/surge coupling.
+Eigen::Vector3d weightTilt(const Eigen::Vector3d& residual_B, const Eigen::Matrix3d& R_W_B, double tilt_weight) {
+  const Eigen::Vector3d z_B = R_W_B.transpose() * Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d heading_part = z_B * z_B.dot(residual_B);
+  return heading_part + tilt_weight * (residual_B - heading_part);
+}
+
 }  // namespace
 
 GlobalRefinerParams globalRefinerParams(const OdometryParams& p) {
@@ -121,6 +130,7 @@ void Odometry::applyGlobalCorrection(const GlobalCorrection& c) {
   const Eigen::Isometry3d delta = c.increment_W ? *c.increment_W : c.correction_W;
   if (!initialised_ || !finitePose(delta)) return;
   last_applied_correction_ = c.frame_id;
+  gravity_bias_.reset();  // the chain moved: its windows no longer compare
   // The correction is a delta in W measured at an older frame; everything tracked since was
   // chained onto that frame's pose, so the same delta moves it too. A correction is not
   // motion: the velocity is only turned with the frame.
@@ -167,6 +177,7 @@ void Odometry::initialise(const FrameFeatures& frame, std::span<const ImuSample>
   pose_covariance_ = Matrix6d::Identity() * 1e-12;
   accel_bias_.reset(state_.T_W_B.rotation(), imu::attitudeFromAccelerometer(recent, 0.2).has_value(),
                     params_.attitude_sigma_rad);
+  gravity_bias_ = imu::GravityBiasObserver({params_.gyro_bias_gravity_window_s, params_.gyro_bias_gravity_max_turn_rad});
   initialised_ = true;
 }
 
@@ -437,6 +448,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   // The state at the start of the interval, for the gravity tilt observation below.
   const Eigen::Vector3d v_start_W = state_.v_W;
   const Eigen::Matrix3d R_start_W_B = state_.T_W_B.rotation();
+  const Eigen::Vector3d p_start_W = state_.T_W_B.translation();
   const int64_t t_start_ns = state_.t_ns;
   if (vision_ok) {
     // Velocity: the visual displacement corrects the IMU's start velocity (III-A feeds III-C
@@ -447,7 +459,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
       // Gyro bias from the residual between the IMU rotation and the vision-only rotation,
       // lightly filtered; the prior-refined rotation would only echo the IMU.
       const Eigen::Vector3d residual = se3::logSO3(R_ref_curr_gyro.transpose() * *R_ref_curr_vision) / dt_ref_s;
-      const Eigen::Vector3d residual_B = T_B_R0.rotation() * residual;
+      const Eigen::Vector3d residual_B = weightTilt(T_B_R0.rotation() * residual, state_.T_W_B.rotation(),
+                                                    params_.gyro_bias_vision_tilt_weight);
       state_.gyro_bias_rad_s -= params_.gyro_bias_gain * residual_B;
       gyro_bias_sigma_rad_s_ = std::max(params_.gyro_bias_sigma_at_rest_rad_s, gyro_bias_sigma_rad_s_ * 0.99);
     }
@@ -614,6 +627,23 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     }
   }
 
+  if (params_.gyro_bias_gravity_window_s > 0) {
+    // Tilt rates of the gyro bias from gravity (core/imu/gravity_bias_observer.hpp): only over
+    // contiguous visual frames whose chain no correction moved, and once the still start ended.
+    if (r.source == PoseSource::kVision && have_imu && !interval.empty() && !still_start_ && !map_delta_W) {
+      Eigen::Vector3d f_B = Eigen::Vector3d::Zero();
+      for (const ImuSample& s : interval) f_B += s.accel_m_s2;
+      f_B = f_B / static_cast<double>(interval.size()) - state_.accel_bias_m_s2;
+      const Eigen::Matrix3d R_mid =
+          R_start_W_B * se3::expSO3(0.5 * se3::logSO3(R_start_W_B.transpose() * state_.T_W_B.rotation()));
+      if (const auto eps = gravity_bias_.add(t_start_ns, p_start_W, state_.t_ns, state_.T_W_B.translation(), R_mid,
+                                             f_B, state_.T_W_B.rotation()))
+        state_.gyro_bias_rad_s += params_.gyro_bias_gravity_gain * *eps;
+    } else {
+      gravity_bias_.reset();
+    }
+  }
+
   r.T_W_B = state_.T_W_B;
   r.v_W = state_.v_W;
   r.covariance = pose_covariance_;
@@ -654,7 +684,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
           const double gain = std::min(1.0, params_.gyro_bias_gain * n);
           const Eigen::Vector3d residual =
               se3::logSO3(R_ref_curr_gyro.transpose() * alone.T_prev_curr.rotation()) / dt_ref_s;
-          state_.gyro_bias_rad_s -= gain * (T_B_R0.rotation() * residual);
+          state_.gyro_bias_rad_s -= gain * weightTilt(T_B_R0.rotation() * residual, state_.T_W_B.rotation(),
+                                                      params_.gyro_bias_vision_tilt_weight);
           gyro_bias_sigma_rad_s_ =
               std::max(params_.gyro_bias_sigma_at_rest_rad_s, gyro_bias_sigma_rad_s_ * std::pow(0.99, n));
         }

@@ -208,6 +208,10 @@ void visit(V& v, odometry::OdometryParams& p) {
   v.flag("gyro_bias_per_keyframe", p.gyro_bias_per_keyframe);
   v.value("gyro_bias_sigma_at_rest_rad_s", p.gyro_bias_sigma_at_rest_rad_s, 0, 1);
   v.value("gyro_bias_sigma_unknown_rad_s", p.gyro_bias_sigma_unknown_rad_s, 0, 1);
+  v.value("gyro_bias_vision_tilt_weight", p.gyro_bias_vision_tilt_weight, 0, 1);
+  v.value("gyro_bias_gravity_window_s", p.gyro_bias_gravity_window_s, 0, 1e4);
+  v.value("gyro_bias_gravity_gain", p.gyro_bias_gravity_gain, 0, 1);
+  v.value("gyro_bias_gravity_max_turn_rad", p.gyro_bias_gravity_max_turn_rad, 0, 3.2);
   v.value("max_speed_m_s", p.max_speed_m_s, 0.01, 1000);
   v.value("gravity_tilt_time_constant_s", p.gravity_tilt_time_constant_s, 0, 1e6);
   v.section("accel_bias", [&] {
