@@ -44,6 +44,18 @@ Eigen::Vector3d weightTilt(const Eigen::Vector3d& residual_B, const Eigen::Matri
   return heading_part + tilt_weight * (residual_B - heading_part);
 }
 
+/// The mean specific force over an IMU interval, body frame, less the accelerometer bias.
+Eigen::Vector3d meanSpecificForce(std::span<const ImuSample> interval, const Eigen::Vector3d& accel_bias_m_s2) {
+  Eigen::Vector3d f_B = Eigen::Vector3d::Zero();
+  for (const ImuSample& s : interval) f_B += s.accel_m_s2;
+  return f_B / static_cast<double>(interval.size()) - accel_bias_m_s2;
+}
+
+/// The attitude halfway (on the geodesic) between two attitudes.
+Eigen::Matrix3d midAttitude(const Eigen::Matrix3d& R_start, const Eigen::Matrix3d& R_end) {
+  return R_start * se3::expSO3(0.5 * se3::logSO3(R_start.transpose() * R_end));
+}
+
 }  // namespace
 
 GlobalRefinerParams globalRefinerParams(const OdometryParams& p) {
@@ -586,13 +598,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     accel_bias_.addInterval(R_start_W_B, state_.gyro_bias_rad_s, interval, t_start_ns, frame.t_ns);
     if (fix) {
       if (accel_bias_.close(state_.v_W) == imu::AccelBiasEstimator::Outcome::kUpdated) {
-        Eigen::Isometry3d D = Eigen::Isometry3d::Identity();
-        D.linear() = se3::expSO3(accel_bias_.tiltCorrection());
-        D.translation() = state_.T_W_B.translation() - D.linear() * state_.T_W_B.translation();
-        state_.T_W_B = orthonormalized(D * state_.T_W_B);
-        state_.v_W = D.linear() * state_.v_W;
-        T_W_R0 = orthonormalized(D * T_W_R0);
-        if (keyframe_) keyframe_->T_W_R0 = orthonormalized(D * keyframe_->T_W_R0);
+        turnChain(se3::expSO3(accel_bias_.tiltCorrection()), T_W_R0);
       }
       if (!accel_bias_.windowOpen()) accel_bias_.startWindow(state_.v_W);
     }
@@ -604,26 +610,15 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     // force over the interval, turned into W at the interval's middle attitude, against the
     // world acceleration vision measured (velocity change) minus gravity. Heading is not
     // observed by gravity, so only the horizontal axes of the misalignment are corrected.
-    Eigen::Vector3d f_B = Eigen::Vector3d::Zero();
-    for (const ImuSample& s : interval) f_B += s.accel_m_s2;
-    f_B = f_B / static_cast<double>(interval.size()) - state_.accel_bias_m_s2;
-    const Eigen::Matrix3d R_mid =
-        R_start_W_B * se3::expSO3(0.5 * se3::logSO3(R_start_W_B.transpose() * state_.T_W_B.rotation()));
+    const Eigen::Vector3d f_B = meanSpecificForce(interval, state_.accel_bias_m_s2);
+    const Eigen::Matrix3d R_mid = midAttitude(R_start_W_B, state_.T_W_B.rotation());
     const Eigen::Vector3d a_W = (state_.v_W - v_start_W) / dt_s;
     const Eigen::Vector3d measured = R_mid * f_B, expected = a_W - imu::gravityW();
     if (measured.norm() > 1.0 && expected.norm() > 1.0) {
       Eigen::Vector3d misalignment = measured.normalized().cross(expected.normalized());
       misalignment.z() = 0;
       const double gain = 1.0 - std::exp(-dt_s / params_.gravity_tilt_time_constant_s);
-      // The chain turns about the current position: the keyframe and the previous frame
-      // with it, so the next frame tracked against them carries the correction.
-      Eigen::Isometry3d D = Eigen::Isometry3d::Identity();
-      D.linear() = se3::expSO3(gain * misalignment);
-      D.translation() = state_.T_W_B.translation() - D.linear() * state_.T_W_B.translation();
-      state_.T_W_B = orthonormalized(D * state_.T_W_B);
-      state_.v_W = D.linear() * state_.v_W;
-      T_W_R0 = orthonormalized(D * T_W_R0);
-      if (keyframe_) keyframe_->T_W_R0 = orthonormalized(D * keyframe_->T_W_R0);
+      turnChain(se3::expSO3(gain * misalignment), T_W_R0);
     }
   }
 
@@ -631,11 +626,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     // Tilt rates of the gyro bias from gravity (core/imu/gravity_bias_observer.hpp): only over
     // contiguous visual frames whose chain no correction moved, and once the still start ended.
     if (r.source == PoseSource::kVision && have_imu && !interval.empty() && !still_start_ && !map_delta_W) {
-      Eigen::Vector3d f_B = Eigen::Vector3d::Zero();
-      for (const ImuSample& s : interval) f_B += s.accel_m_s2;
-      f_B = f_B / static_cast<double>(interval.size()) - state_.accel_bias_m_s2;
-      const Eigen::Matrix3d R_mid =
-          R_start_W_B * se3::expSO3(0.5 * se3::logSO3(R_start_W_B.transpose() * state_.T_W_B.rotation()));
+      const Eigen::Vector3d f_B = meanSpecificForce(interval, state_.accel_bias_m_s2);
+      const Eigen::Matrix3d R_mid = midAttitude(R_start_W_B, state_.T_W_B.rotation());
       if (const auto eps = gravity_bias_.add(t_start_ns, p_start_W, state_.t_ns, state_.T_W_B.translation(), R_mid,
                                              f_B, state_.T_W_B.rotation()))
         state_.gyro_bias_rad_s += params_.gyro_bias_gravity_gain * *eps;
@@ -715,5 +707,15 @@ void Odometry::newKeyframe(const matching::StereoFeatures& features, const Eigen
 }
 
 std::size_t Odometry::mapMemoryBytes() const { return refiner_.memoryBytes(); }
+
+void Odometry::turnChain(const Eigen::Matrix3d& R, Eigen::Isometry3d& T_W_R0) {
+  Eigen::Isometry3d D = Eigen::Isometry3d::Identity();
+  D.linear() = R;
+  D.translation() = state_.T_W_B.translation() - D.linear() * state_.T_W_B.translation();
+  state_.T_W_B = orthonormalized(D * state_.T_W_B);
+  state_.v_W = D.linear() * state_.v_W;
+  T_W_R0 = orthonormalized(D * T_W_R0);
+  if (keyframe_) keyframe_->T_W_R0 = orthonormalized(D * keyframe_->T_W_R0);
+}
 
 }  // namespace seavio::odometry

@@ -215,6 +215,9 @@ class Odometry {
     int64_t t_ns = 0;
   };
   void initialise(const FrameFeatures& frame, std::span<const ImuSample> imu);
+  /// Turns the chain by `R` (in W) about the current position: the state, the frame's `T_W_R0`
+  /// and the keyframe with it, so the next frame tracked against them carries the correction.
+  void turnChain(const Eigen::Matrix3d& R, Eigen::Isometry3d& T_W_R0);
   /// Makes the frame just tracked (pose `T_W_R0`, the current pose covariance) the keyframe.
   void newKeyframe(const matching::StereoFeatures& features, const Eigen::Isometry3d& T_W_R0, int64_t t_ns);
   /// Deferred mode: the request for the frame just tracked.

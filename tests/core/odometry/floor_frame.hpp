@@ -3,6 +3,7 @@
 // with exact stereo geometry, pixel noise and each point's fixed descriptor, as the front end
 // would hand them to Odometry::track.
 #include <cmath>
+#include <cstdint>
 #include <random>
 #include <vector>
 
@@ -10,6 +11,7 @@
 #include <opencv2/core.hpp>
 
 #include "core/camera/rectified_rig.hpp"
+#include "core/imu/imu_integrator.hpp"
 #include "core/odometry/frontend.hpp"
 
 namespace seavio::odometry::test {
@@ -67,6 +69,21 @@ inline FrameFeatures floorFrame(const camera::RectifiedRig& rig, const std::vect
   ff.left.descriptors = ff.stereo.descriptors;
   ff.right = ff.left;
   return ff;
+}
+
+/// The 200 Hz IMU samples of a level vehicle at constant velocity from `next_t_ns` up to one
+/// sample past `frame_t_ns` (advancing `next_t_ns`): gravity only on the accelerometer, and
+/// `gyro_rad_s` on the gyro from t > 0 (zero before, the still start).
+inline std::vector<ImuSample> levelImuUntil(int64_t& next_t_ns, int64_t frame_t_ns, const Eigen::Vector3d& gyro_rad_s) {
+  std::vector<ImuSample> imu;
+  for (; next_t_ns <= frame_t_ns + 5'000'000; next_t_ns += 5'000'000) {
+    ImuSample s;
+    s.t_ns = next_t_ns;
+    s.gyro_rad_s = next_t_ns > 0 ? gyro_rad_s : Eigen::Vector3d::Zero();
+    s.accel_m_s2 = -imu::gravityW();
+    imu.push_back(s);
+  }
+  return imu;
 }
 
 }  // namespace seavio::odometry::test

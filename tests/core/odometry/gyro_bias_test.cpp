@@ -55,14 +55,7 @@ BiasRun fly(const Eigen::Vector3d& bias, bool per_keyframe) {
   for (int f = 0; f < frames; ++f) {
     const double t = 0.1 * f;
     const int64_t t_ns = static_cast<int64_t>(std::llround(t * 1e9));
-    std::vector<ImuSample> imu;
-    for (; imu_t <= t_ns + 5'000'000; imu_t += 5'000'000) {
-      ImuSample s;
-      s.t_ns = imu_t;
-      s.gyro_rad_s = imu_t > 0 ? bias : Eigen::Vector3d::Zero();
-      s.accel_m_s2 = -imu::gravityW();  // level, constant velocity
-      imu.push_back(s);
-    }
+    const std::vector<ImuSample> imu = test::levelImuUntil(imu_t, t_ns, bias);
     FrameFeatures ff = test::floorFrame(rig, floor.points_W, floor.descriptors, pose(t), static_cast<uint64_t>(f), t_ns, pix, rng);
     EXPECT_GT(ff.stereo.points.size(), 100u);
     const OdometryResult r = odo.track(std::move(ff), imu);

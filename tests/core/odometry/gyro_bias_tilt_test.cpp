@@ -52,14 +52,7 @@ TiltRun fly(const OdometryParams& params) {
   for (int f = 0; f < kFrames; ++f) {
     const double t = 0.1 * f;
     const int64_t t_ns = static_cast<int64_t>(std::llround(t * 1e9));
-    std::vector<ImuSample> imu;
-    for (; imu_t <= t_ns + 5'000'000; imu_t += 5'000'000) {
-      ImuSample s;
-      s.t_ns = imu_t;
-      s.gyro_rad_s = Eigen::Vector3d::Zero();  // level, straight, no bias
-      s.accel_m_s2 = -imu::gravityW();         // level, constant velocity
-      imu.push_back(s);
-    }
+    const std::vector<ImuSample> imu = test::levelImuUntil(imu_t, t_ns, Eigen::Vector3d::Zero());  // no bias
     FrameFeatures ff = test::floorFrame(rig, floor.points_W, floor.descriptors, rendered(t), static_cast<uint64_t>(f),
                                         t_ns, pix, rng);
     EXPECT_GT(ff.stereo.points.size(), 100u);
