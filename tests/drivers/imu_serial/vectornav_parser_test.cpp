@@ -1,7 +1,5 @@
 #include "drivers/imu_serial/vectornav_parser.hpp"
 
-#include "drivers/imu_serial/device_clock.hpp"
-
 #include <gtest/gtest.h>
 
 #include <random>
@@ -100,47 +98,6 @@ TEST(VectorNavConfig, CommandHasXorChecksum) {
   EXPECT_EQ(c.substr(c.size() - 2), "\r\n");
 }
 
-TEST(DeviceClock, FollowsDriftOncePerWindow) {
-  DeviceClockConfig c;
-  c.init_samples = 1;
-  c.drift_window_samples = 4;
-  DeviceClock clock(c);
-  // GIVEN a device clock running 1 us slow per 10 ms sample (100 ppm) against the host
-  for (int i = 0; i < 5; ++i) clock.map(i * 10'000'000LL, 1'000'000'000 + i * 10'001'000LL);
-  // THEN the offset stayed put within the window and moved once when it closed
-  EXPECT_EQ(clock.offsetNs(), 1'000'001'000);
-  EXPECT_TRUE(clock.settled());
-}
-
 }  // namespace
 }  // namespace seavio::drivers
 
-
-namespace seavio::drivers {
-namespace {
-
-TEST(DeviceClock, KeepsDeviceSpacingAndFlagsJumps) {
-  DeviceClockConfig c;
-  c.init_samples = 3;
-  c.time_offset_ns = 7;
-  DeviceClock clock(c);
-  // GIVEN transport latencies of 3, 1 and 2 ms THEN the offset is the 1 ms (smallest) one.
-  EXPECT_EQ(clock.map(0, 1'003'000'000), 1'003'000'007);
-  EXPECT_EQ(clock.map(10'000'000, 1'011'000'000), 1'011'000'007);
-  EXPECT_EQ(clock.map(20'000'000, 1'022'000'000), 1'021'000'007);
-  EXPECT_EQ(clock.offsetNs(), 1'001'000'000);
-  bool jumped = true;
-  EXPECT_EQ(clock.map(30'000'000, 1'031'500'000, &jumped), 1'031'000'007);
-  EXPECT_FALSE(jumped);
-  clock.map(5'000'000, 1'040'000'000, &jumped);  // backwards: a device reset
-  EXPECT_TRUE(jumped);
-  // Extreme device times (outside bytes) never overflow.
-  clock.map(std::numeric_limits<int64_t>::max(), 1'050'000'000, &jumped);
-  EXPECT_TRUE(jumped);
-  const int64_t t = clock.map(std::numeric_limits<int64_t>::min(), 1'060'000'000, &jumped);
-  EXPECT_TRUE(jumped);
-  EXPECT_EQ(t, 1'060'000'007);  // falls back to the host clock
-}
-
-}  // namespace
-}  // namespace seavio::drivers
