@@ -23,7 +23,7 @@ void CoastingCovariance::setMeasuredVelocity(const Eigen::Matrix3d& velocity_cov
   // Over age_s the IMU increments carried the same tilt and accelerometer-bias errors that the
   // coasting will carry (the transition of propagate() with the attitude held): the velocity
   // error gains -R [f]x dtheta age_s - R dba age_s, correlated with those states.
-  Matrix15d A = Matrix15d::Identity();
+  Matrix18d A = Matrix18d::Identity();
   A.block<3, 3>(3, 0) = -R_W_B * se3::skew(specific_force_B) * age_s;
   A.block<3, 3>(3, 12) = -R_W_B * age_s;
   P_ = A * P_ * A.transpose();
@@ -35,11 +35,28 @@ void CoastingCovariance::setMeasuredMotion(const Eigen::Matrix3d& velocity_covar
                                            const Eigen::Matrix3d& acceleration_covariance,
                                            const Eigen::Vector3d& acceleration_error, const Eigen::Matrix3d& R_W_B) {
   P_.block<3, 3>(3, 3) = 0.5 * (velocity_covariance + velocity_covariance.transpose());
-  // A bias error db accelerates by -R db (propagate()'s transition), so the fit's acceleration
-  // error da is the bias error -R^T da.
-  P_.block<3, 3>(12, 12) += R_W_B.transpose() * acceleration_covariance * R_W_B;
-  P_.block<3, 3>(3, 12) = -velocity_acceleration_covariance * R_W_B;
-  P_.block<3, 3>(12, 3) = P_.block<3, 3>(3, 12).transpose();
+  // The fit measured the acceleration the IMU missed, what the tilt and bias errors
+  // x = (dtheta, dba) do to the velocity, plus its own error e. The correction is a constant in
+  // W, so its error is c = -H x + e, with H the part of propagate()'s transition [-R [f]x, -R]
+  // (f the reaction to gravity: the fit averages over seconds of near-constant velocity) whose
+  // effect stays constant in W while the vehicle turns about the vertical, as AUVs do: the
+  // tilt's (an attitude error is a fixed rotation of the estimate in W) and the vertical
+  // component of the bias's (the bias is fixed in the body, so its horizontal components turn
+  // with the heading and keep their prior). At the hand-over the acceleration error is then e
+  // plus the horizontal bias prior. Carrying the fit's error on top of the full tilt prior
+  // counted the tilt twice (issue 9: 3 sigma / error ~20 once the gravity-referenced tilt had
+  // made the tilt itself small). Cancelling the horizontal bias too is exact only until the
+  // first turn, and left 2 of 24 CoastingConsistency errors just above 3 sigma.
+  const Eigen::Matrix3d vertical = Eigen::Vector3d::UnitZ() * Eigen::Vector3d::UnitZ().transpose();
+  Eigen::Matrix<double, 3, 18> H = Eigen::Matrix<double, 3, 18>::Zero();
+  H.block<3, 3>(0, 0) = -R_W_B * se3::skew(R_W_B.transpose() * Eigen::Vector3d(0, 0, kGravity_m_s2));
+  H.block<3, 3>(0, 12) = -vertical * R_W_B;
+  // cov(s, c) = -cov(s, x) H^T + cov(s, e) for every state s; only the velocity shares e.
+  Eigen::Matrix<double, 18, 3> Psc = -P_ * H.transpose();
+  Psc.block<3, 3>(3, 0) += velocity_acceleration_covariance;
+  Psc.block<3, 3>(15, 0) = H * P_ * H.transpose() + acceleration_covariance;
+  P_.block<18, 3>(0, 15) = Psc;
+  P_.block<3, 18>(15, 0) = Psc.transpose();
   P_ = 0.5 * (P_ + P_.transpose());
   accel_correction_W_ = acceleration_error;
 }
@@ -72,7 +89,7 @@ void CoastingCovariance::propagate(const Eigen::Matrix3d& R_W_B, const Eigen::Ve
     // First-order error-state transition (body attitude error; a gyro bias error rotates the
     // attitude, an accelerometer bias error adds an acceleration in W; the tilt error couples
     // through the specific force, i.e. mostly gravity's reaction).
-    Matrix15d F = Matrix15d::Identity();
+    Matrix18d F = Matrix18d::Identity();
     F.block<3, 3>(0, 0) = dR.transpose();
     F.block<3, 3>(0, 9) = -Jr * dt;
     F.block<3, 3>(3, 0) = -Ra * dt;
@@ -80,11 +97,13 @@ void CoastingCovariance::propagate(const Eigen::Matrix3d& R_W_B, const Eigen::Ve
     F.block<3, 3>(6, 0) = -0.5 * Ra * dt * dt;
     F.block<3, 3>(6, 3) = I * dt;
     F.block<3, 3>(6, 12) = -0.5 * R_mid * dt * dt;
+    F.block<3, 3>(3, 15) = I * dt;  // the correction's error, constant in W
+    F.block<3, 3>(6, 15) = 0.5 * I * dt * dt;
     // White measurement noise over dt (variance density^2 / dt of the mean) and the biases'
     // random walks (variance rw^2 * dt).
     const double sg2 = noise.gyroscope_noise_density * noise.gyroscope_noise_density / dt;
     const double sa2 = noise.accelerometer_noise_density * noise.accelerometer_noise_density / dt;
-    Eigen::Matrix<double, 15, 12> G = Eigen::Matrix<double, 15, 12>::Zero();
+    Eigen::Matrix<double, 18, 12> G = Eigen::Matrix<double, 18, 12>::Zero();
     G.block<3, 3>(0, 0) = Jr * dt;
     G.block<3, 3>(3, 3) = R_mid * dt;
     G.block<3, 3>(6, 3) = 0.5 * R_mid * dt * dt;

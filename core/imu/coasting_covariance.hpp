@@ -23,6 +23,9 @@ namespace seavio::imu {
 /// Error-state order: dtheta [rad] in body, dv [m/s] in W, dp [m] in W, gyro bias [rad/s],
 /// accelerometer bias [m/s^2].
 using Matrix15d = Eigen::Matrix<double, 15, 15>;
+/// Internally a 16th-18th state: the error of the acceleration correction [m/s^2, W], constant
+/// in W (zero without a correction).
+using Matrix18d = Eigen::Matrix<double, 18, 18>;
 
 /// One-sigma uncertainties at the start of a vision outage (per axis).
 struct CoastingStart {
@@ -39,10 +42,11 @@ class CoastingCovariance {
   void start(const CoastingStart& s);
   /// After start(): velocity and the acceleration the IMU missed, both measured by a parabola
   /// fit over visual fixes (HandoverVelocity::has_acceleration), in W. The dead reckoning is
-  /// then corrected by `acceleration_error` (accelerationCorrection()); what remains is the
-  /// fit's uncertainty, carried as an accelerometer-bias error (the same W acceleration for
-  /// an attitude `R_W_B`) correlated with the velocity, on top of the bias prior (the bias
-  /// turns with the vehicle, the correction does not).
+  /// then corrected by `acceleration_error` (accelerationCorrection()), a constant in W. Its
+  /// error c = -H x + e cancels what the tilt error and the bias's vertical component do at
+  /// attitude `R_W_B` (both stay constant in W as the vehicle turns about the vertical), up to
+  /// the fit's own error e (correlated with the velocity); the horizontal bias prior stays on
+  /// top (it turns with the heading, the correction does not).
   void setMeasuredMotion(const Eigen::Matrix3d& velocity_covariance, const Eigen::Matrix3d& velocity_acceleration_covariance,
                          const Eigen::Matrix3d& acceleration_covariance, const Eigen::Vector3d& acceleration_error,
                          const Eigen::Matrix3d& R_W_B);
@@ -71,10 +75,11 @@ class CoastingCovariance {
   /// for a body attitude `R_W_B` now.
   Eigen::Matrix<double, 6, 6> poseCovariance(const Eigen::Matrix3d& R_W_B) const;
 
-  const Matrix15d& covariance() const { return P_; }
+  /// The 15 error states' covariance.
+  Matrix15d covariance() const { return P_.topLeftCorner<15, 15>(); }
 
  private:
-  Matrix15d P_ = Matrix15d::Zero();
+  Matrix18d P_ = Matrix18d::Zero();
   Eigen::Vector3d accel_correction_W_ = Eigen::Vector3d::Zero();
   bool active_ = false;
 };
