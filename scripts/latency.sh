@@ -35,6 +35,8 @@
 set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+# shellcheck source-path=SCRIPTDIR source=lib/daemon_run.sh
+source "$here/scripts/lib/daemon_run.sh"
 rt=1
 runs=3
 modes="local global"
@@ -65,12 +67,8 @@ done
 [[ "$runs" =~ ^[1-9][0-9]*$ ]] || { echo "latency.sh: --runs must be a positive integer" >&2; exit 2; }
 seavio="$build/bin/seavio"
 seaviod="$build/bin/seaviod"
-for b in "$seavio" "$seaviod"; do
-  [[ -x "$b" ]] || { echo "latency.sh: $b not built (cmake --build $build --target seavio seaviod)" >&2; exit 2; }
-done
-for t in lcm-logger unshare ip chrt; do
-  command -v "$t" >/dev/null || { echo "latency.sh: '$t' not found (scripts/setup.sh installs it)" >&2; exit 2; }
-done
+seavio_need_bins latency.sh "$build"
+seavio_need_tools latency.sh lcm-logger unshare ip chrt
 if [[ $rt == 1 && $EUID -ne 0 ]]; then
   echo "latency.sh: --rt needs root (SCHED_FIFO and a network namespace without a user namespace)" >&2
   exit 2
@@ -82,18 +80,13 @@ if [[ -z "$work" ]]; then
 fi
 mkdir -p "$work"
 work="$(cd "$work" && pwd)"
-if [[ ! -d "$work/seq/mav0" ]]; then
-  echo "latency: simulating a $frames-frame 640 x 480 15 fps survey (short-plain seed $seed)"
-  "$seavio" simulate short-plain --frames "$frames" --frame-rate 15 --seed "$seed" --force --out "$work/seq" \
-    > "$work/simulate.log" 2>&1
-fi
-[[ -f "$work/survey.lcmlog" ]] || "$seavio" log --dataset "$work/seq" --out "$work/survey.lcmlog"
+seavio_survey_log "$seavio" "$work" "$frames" "$seed"
 
-url="udpm://239.255.76.67:7667?ttl=0&recv_buf_size=16777216"
+url="$SEAVIO_LCM_URL"
 # A user namespace (unshare -r) would take away the right to SCHED_FIFO: as root, a
 # network namespace alone.
 # rival_prio: other processes' real-time threads from this priority up preempt the daemon
-# (scripts/rival_cpu.awk); their CPU time during a run is reported beside its figures.
+# (seavio_rival_cpu, scripts/lib/daemon_run.sh); their CPU time during a run is reported beside its figures.
 if [[ $rt == 1 ]]; then ns="unshare -n"; daemon_prio="chrt -f 20"; logger_prio="chrt -f 19"; rival_prio=20
 else ns="unshare -rn"; daemon_prio=""; logger_prio=""; rival_prio=1; fi
 
@@ -119,11 +112,11 @@ odometry:
   mode: $mode
 EOF
     export LAT_DIR="$d" LAT_URL="$url" LAT_SEAVIOD="$seaviod" LAT_DAEMON_PRIO="$daemon_prio" LAT_LOGGER_PRIO="$logger_prio"
-    export LAT_RIVAL_PRIO="$rival_prio" LAT_RIVAL_AWK="$here/scripts/rival_cpu.awk"
+    export LAT_RIVAL_PRIO="$rival_prio"
     $ns bash -c '
 set -euo pipefail
-ip link set lo up
-ip route add 224.0.0.0/4 dev lo
+source "$SEAVIO_DAEMON_RUN_LIB"
+seavio_ns_multicast
 $LAT_LOGGER_PRIO lcm-logger --lcm-url="$LAT_URL" -c "SEAVIO_POSE|SEAVIO_STATUS" --force "$LAT_DIR/out.lcmlog" > "$LAT_DIR/logger.log" 2>&1 &
 logger=$!
 sleep 0.5
@@ -132,9 +125,7 @@ daemon=$!
 # Every second: CPU [s] of other processes real-time threads able to preempt the daemon.
 rm -f "$LAT_DIR/rival.state" "$LAT_DIR/rival.txt"
 while kill -0 $daemon 2>/dev/null; do
-  { grep -H "" /proc/[0-9]*/task/*/stat 2>/dev/null || true; } |
-    awk -v state="$LAT_DIR/rival.state" -v min="$LAT_RIVAL_PRIO" -v hz="$(getconf CLK_TCK)" -v now="$(cut -d" " -f1 /proc/uptime)" \
-        -v excl=" $$ $daemon $logger " -f "$LAT_RIVAL_AWK" >> "$LAT_DIR/rival.txt"
+  seavio_rival_cpu "$LAT_DIR/rival.state" "$LAT_RIVAL_PRIO" "$$ $daemon $logger" >> "$LAT_DIR/rival.txt"
   sleep 1
 done
 rc=0
@@ -148,14 +139,11 @@ exit $rc
     # The daemon's own counters at exit (its summary) are the authority on drops: frames
     # that never reached a pose leave no trace in the recorded log's sequence numbers when
     # they are the last ones.
-    counters="$(grep -m1 -E '^ +frames in [0-9]+, processed' "$d/seaviod.log" || true)"
-    [[ -n "$counters" ]] || { echo "latency: no frame counters in $d/seaviod.log"; exit 2; }
-    frames_in=$(sed -E 's/.*frames in ([0-9]+).*/\1/' <<<"$counters")
-    processed=$(sed -E 's/.*processed ([0-9]+).*/\1/' <<<"$counters")
-    dropped=$(( $(sed -E 's/.*dropped in ring ([0-9]+).*/\1/' <<<"$counters") + $(sed -E 's/.*dropped at shutdown ([0-9]+).*/\1/' <<<"$counters") + $(sed -E 's/.*missing upstream \(seq gaps\) ([0-9]+).*/\1/' <<<"$counters") ))
-    jstat() {  # jstat NAME FIELD: FIELD of the per-frame statistics NAME in profile.json
-      grep -o "\"name\": \"$1\"[^}]*" "$d/profile.json" | head -1 | sed -E "s/.*\"$2\": ([^,}]+).*/\1/"
-    }
+    grep -qE '^ +frames in [0-9]+, processed' "$d/seaviod.log" || { echo "latency: no frame counters in $d/seaviod.log"; exit 2; }
+    frames_in=$(seavio_exit_counter "$d/seaviod.log" "frames in")
+    processed=$(seavio_exit_counter "$d/seaviod.log" "processed")
+    dropped=$(( $(seavio_exit_counter "$d/seaviod.log" "dropped in ring") + $(seavio_exit_counter "$d/seaviod.log" "dropped at shutdown") + $(seavio_exit_counter "$d/seaviod.log" "missing upstream \(seq gaps\)") ))
+    jstat() { seavio_jstat "$d/profile.json" "$1" "$2"; }  # jstat NAME FIELD of this run
     echo "$mode,$run,$(jstat capture_to_publish_replay p50_ms),$(jstat capture_to_publish_replay p99_ms),$(jstat capture_to_publish_replay max_ms),$(jstat end_to_end p50_ms),$(jstat end_to_end p99_ms),$(grep -m1 -o '"frames": [0-9]*' "$d/profile.json" | grep -o '[0-9]*$'),$dropped,$(grep -m1 -o '"seq_gaps": [0-9]*' "$d/profile.json" | grep -o '[0-9]*$'),$processed,$frames_in,$(awk '{ c += $1 } END { printf "%.1f", c }' "$d/rival.txt")" >> "$summary"
     tail -n 1 "$summary" | awk -F, '{ printf "  %-6s run %s: capture->publish p50 %.1f ms, p99 %.1f ms, max %.1f ms; receipt->publish p50 %.1f, p99 %.1f ms; %d poses, %d dropped, %d seq gaps (%d of %d frames processed); rival real-time CPU %.1f s\n", $1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13 }'
   done

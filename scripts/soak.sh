@@ -34,6 +34,8 @@
 set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+# shellcheck source-path=SCRIPTDIR source=lib/daemon_run.sh
+source "$here/scripts/lib/daemon_run.sh"
 minutes=30
 mode=plain
 build="$here/build"
@@ -62,12 +64,8 @@ done
 [[ "$minutes" =~ ^[0-9]+([.][0-9]+)?$ ]] || { echo "soak.sh: MINUTES must be a number, got '$minutes'" >&2; exit 2; }
 seavio="$build/bin/seavio"
 seaviod="$build/bin/seaviod"
-for b in "$seavio" "$seaviod"; do
-  [[ -x "$b" ]] || { echo "soak.sh: $b not built (cmake --build $build --target seavio seaviod)" >&2; exit 2; }
-done
-for t in lcm-logger unshare ip; do
-  command -v "$t" >/dev/null || { echo "soak.sh: '$t' not found (scripts/setup.sh installs it)" >&2; exit 2; }
-done
+seavio_need_bins soak.sh "$build"
+seavio_need_tools soak.sh lcm-logger unshare ip
 if [[ $rt == 1 ]]; then
   command -v chrt >/dev/null || { echo "soak.sh: 'chrt' not found (util-linux)" >&2; exit 2; }
   [[ $EUID -eq 0 ]] || { echo "soak.sh: --rt needs root (SCHED_FIFO)" >&2; exit 2; }
@@ -105,16 +103,10 @@ fi
 
 if [[ $report == 0 ]]; then
 # 1. Survey and its log (reused when present).
-if [[ ! -d "$work/seq/mav0" ]]; then
-  echo "soak: simulating a $frames-frame survey"
-  "$seavio" simulate short-plain --frames "$frames" --frame-rate 15 --seed 5 --force --out "$work/seq" > "$work/simulate.log" 2>&1
-fi
-if [[ ! -f "$work/survey.lcmlog" ]]; then
-  "$seavio" log --dataset "$work/seq" --out "$work/survey.lcmlog"
-fi
+seavio_survey_log "$seavio" "$work" "$frames" 5
 
 # 2. Daemon config: LCM in, LCM out, live settings (never blocks acquisition).
-url="udpm://239.255.76.67:7667?ttl=0&recv_buf_size=16777216"
+url="$SEAVIO_LCM_URL"
 cat > "$work/soak.yaml" <<EOF
 daemon:
   processor: odometry
@@ -141,15 +133,15 @@ else
 fi
 # Starvation, measured rather than guessed: every 2 s the sampler also adds up the CPU time
 # used by other processes' real-time threads at a priority that preempts seaviod's frame
-# path (>= 20 with --rt, any without; scripts/rival_cpu.awk): on a shared machine another
+# path (>= 20 with --rt, any without; seavio_rival_cpu in scripts/lib/daemon_run.sh): on a shared machine another
 # engineer's `chrt -f 50` benchmark takes the cores from the daemon, which no vehicle does.
 export SOAK_WORK="$work" SOAK_URL="$url" SOAK_SECONDS="$seconds" SOAK_SEAVIO="$seavio" SOAK_SEAVIOD="$seaviod"
 export SOAK_LAUNCHER="$launcher" SOAK_DAEMON_PRIO="$daemon_prio" SOAK_PLAYER_PRIO="$player_prio" SOAK_LOGGER_PRIO="$logger_prio"
-export SOAK_RIVAL_PRIO="$rival_prio" SOAK_RIVAL_AWK="$here/scripts/rival_cpu.awk"
+export SOAK_RIVAL_PRIO="$rival_prio"
 $ns bash -c '
 set -euo pipefail
-ip link set lo up
-ip route add 224.0.0.0/4 dev lo
+source "$SEAVIO_DAEMON_RUN_LIB"
+seavio_ns_multicast
 w="$SOAK_WORK"
 $SOAK_LOGGER_PRIO lcm-logger --lcm-url="$SOAK_URL" -c "SEAVIO_POSE|SEAVIO_STATUS" --force "$w/out.lcmlog" > "$w/logger.log" 2>&1 &
 logger=$!
@@ -159,14 +151,13 @@ sleep 3
 kill -0 $daemon 2>/dev/null || { echo "soak: seaviod exited at start:"; cat "$w/seaviod.log"; exit 2; }
 # chrt, valgrind and env exec in place: $daemon is the seaviod process itself.
 pid=$daemon
-hz=$(getconf CLK_TCK)
 # t_s since start, RSS [kB], monotonic clock [s], rival real-time CPU [s] since the last
 # sample; then, cumulative: the time seaviod threads waited runnable for a CPU [ms]
 # (schedstat run_delay) and the time the hypervisor took the CPUs (steal, /proc/stat [ticks]).
 sample() {
   local now; now=$(cut -d" " -f1 /proc/uptime)
-  echo "$(( $(date +%s) - start )),$(awk "/^VmRSS/ {print \$2}" /proc/$pid/status 2>/dev/null || echo 0),$now,$( { grep -H "" /proc/[0-9]*/task/*/stat 2>/dev/null || true; } |
-    awk -v state="$w/rival.state" -v min="$SOAK_RIVAL_PRIO" -v hz="$hz" -v now="$now" -v excl=" $$ $pid $logger ${player:-0} " -f "$SOAK_RIVAL_AWK"),$(
+  echo "$(( $(date +%s) - start )),$(awk "/^VmRSS/ {print \$2}" /proc/$pid/status 2>/dev/null || echo 0),$now,$(
+    seavio_rival_cpu "$w/rival.state" "$SOAK_RIVAL_PRIO" "$$ $pid $logger ${player:-0}" "$now"),$(
     { cat /proc/$pid/task/*/schedstat 2>/dev/null || true; } | awk "{ d += \$2 } END { printf \"%d\", d / 1e6 }"),$(awk "/^cpu / { print \$9 }" /proc/stat)" >> "$w/rss.csv"
 }
 echo "t_s,rss_kb,uptime_s,rival_rt_cpu_s,daemon_wait_ms,steal_ticks" > "$w/rss.csv"
@@ -235,17 +226,10 @@ if [[ "$mode" == lsan ]]; then
 fi
 
 # 5. Verdict: one line per limit, PASS or FAIL, no interpretation needed.
-jstat() {  # jstat FILE NAME FIELD: FIELD of the per-frame statistics NAME in a profile JSON
-  grep -o "\"name\": \"$2\"[^}]*" "$1" 2>/dev/null | head -1 | sed -E "s/.*\"$3\": ([^,}]+).*/\1/"
-}
 jarray() {  # jarray FILE KEY: the elements of a one-line JSON array, one per line
   grep -oE "\"$2\": \[[^]]*\]" "$1" | sed -E 's/^[^[]*\[//; s/\]$//' | tr ',' '\n' | tr -d ' ' | grep -v '^$' || true
 }
-counter() {  # counter TEXT: the number after TEXT in seaviod's exit summary (0 if absent)
-  local v
-  v=$(sed -n '/seaviod health/,$p' "$work/seaviod.log" | grep -oE "$1 [0-9]+" | head -1 | grep -oE '[0-9]+$' || true)
-  echo "${v:-0}"
-}
+counter() { seavio_exit_counter "$work/seaviod.log" "$1"; }  # counter TEXT, from this run's log
 pct() {  # pct Q: nearest-rank percentile of the numbers on stdin, "nan" if none
   sort -g | awk -v q="$1" '{ v[NR] = $1 } END { if (!NR) { print "nan"; exit } r = int(q * NR); if (r < q * NR) r++; if (r < 1) r = 1; print v[r] }'
 }
