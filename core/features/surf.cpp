@@ -16,6 +16,13 @@
 #include <emmintrin.h>  // baseline on x86-64: no -march flag needed
 #endif
 
+// AVX2 kernels beside the baseline ones, chosen at run time (GCC and Clang on x86-64).
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define SEAVIO_SURF_AVX2 1
+#else
+#define SEAVIO_SURF_AVX2 0
+#endif
+
 namespace seavio::features {
 namespace {
 
@@ -77,9 +84,11 @@ struct HessianFilter {
 #if defined(__GNUC__)
 #define SEAVIO_SURF_INLINE inline __attribute__((always_inline))
 #define SEAVIO_SURF_NOINLINE __attribute__((noinline))
+#define SEAVIO_SURF_LAMBDA_INLINE __attribute__((always_inline))
 #else
 #define SEAVIO_SURF_INLINE inline
 #define SEAVIO_SURF_NOINLINE
+#define SEAVIO_SURF_LAMBDA_INLINE
 #endif
 
 /// det(H) = Dxx Dyy - (0.9 Dxy)^2 (Bay 2008, eq. 4) from the eight box sums of one filter
@@ -126,7 +135,7 @@ inline void hessianRow(const HessianFilter& f, const uint32_t* base, std::ptrdif
 /// hessianRowStep2). Same integer arithmetic (exact modulo 2^32) and float operations as
 /// hessianRow: bit-identical.
 template <int L, bool kUnitStep>
-void hessianRowFixed(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t stride,
+SEAVIO_SURF_INLINE void hessianRowFixed(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t stride,
                      std::ptrdiff_t step_arg, int n, float* out) {
   constexpr int H = (3 * L - 1) / 2, M = (L - 1) / 2;
   const std::ptrdiff_t step = kUnitStep ? 1 : step_arg;
@@ -166,7 +175,7 @@ void hessianRowFixed(const HessianFilter& f, const uint32_t* base, std::ptrdiff_
 /// vertical L-row sums at rows i - M, i - L and i + 1, so hessianLayerUnit forms each once
 /// and passes it to three output rows (`fm`, `d1`, `d2`, at the first output column).
 template <int L>
-void hessianRowUnit(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t stride, int n, float* out,
+SEAVIO_SURF_INLINE void hessianRowUnit(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t stride, int n, float* out,
                     uint32_t* scratch, const uint32_t* fm, const uint32_t* d1, const uint32_t* d2) {
   constexpr int H = (3 * L - 1) / 2, M = (L - 1) / 2;
   const std::ptrdiff_t span = n + 2 * H + 1;  // columns -H .. n + H
@@ -201,14 +210,14 @@ void hessianRowUnit(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t
 /// L + 2 rows, each formed once and read by the rows i = r + M (yy middle), r + L (xy upper)
 /// and r - 1 (xy lower). `scratch` holds (L + 4) (n + 3 L) entries.
 template <int L>
-void hessianLayerUnit(const HessianFilter& f, const uint32_t* sum, std::ptrdiff_t stride, int i0, int i1, int j0,
+SEAVIO_SURF_INLINE void hessianLayerUnit(const HessianFilter& f, const uint32_t* sum, std::ptrdiff_t stride, int i0, int i1, int j0,
                       int n, float* det, std::ptrdiff_t cols, uint32_t* scratch) {
   constexpr int H = (3 * L - 1) / 2, M = (L - 1) / 2, kRing = L + 2;
   const std::ptrdiff_t span = n + 2 * H + 1;
   uint32_t* ring = scratch + 2 * span;
   std::array<int, kRing> ring_row;
   ring_row.fill(-1);
-  const auto vrow = [&](int r) -> const uint32_t* {  // r >= i0 - L >= 0
+  const auto vrow = [&](int r) SEAVIO_SURF_LAMBDA_INLINE -> const uint32_t* {  // r >= i0 - L >= 0
     const int slot = r % kRing;
     uint32_t* v = ring + slot * span;
     if (ring_row[slot] != r) {
@@ -230,7 +239,7 @@ void hessianLayerUnit(const HessianFilter& f, const uint32_t* sum, std::ptrdiff_
 
 /// Table row difference b - a over the 2 k columns starting at `a`/`b`, split by column parity:
 /// even[q] = b[2 q] - a[2 q], odd[q] = b[2 q + 1] - a[2 q + 1], q < k.
-inline void rowDifferenceSplit(const uint32_t* a, const uint32_t* b, std::ptrdiff_t k, uint32_t* even,
+SEAVIO_SURF_INLINE void rowDifferenceSplit(const uint32_t* a, const uint32_t* b, std::ptrdiff_t k, uint32_t* even,
                                uint32_t* odd) {
   std::ptrdiff_t q = 0;
 #if defined(__SSE2__)
@@ -253,7 +262,7 @@ inline void rowDifferenceSplit(const uint32_t* a, const uint32_t* b, std::ptrdif
 /// Entry at column offset O (relative to the filter centre, >= -H) of a row difference split
 /// by hessianRowStep2, for output j.
 template <int O, int H>
-inline uint32_t splitAt(const uint32_t* even, const uint32_t* odd, int j) {
+SEAVIO_SURF_INLINE uint32_t splitAt(const uint32_t* even, const uint32_t* odd, int j) {
   constexpr int d = O + H;
   static_assert(d >= 0, "offset inside the split row");
   if constexpr (d % 2 == 0) {
@@ -268,7 +277,7 @@ inline uint32_t splitAt(const uint32_t* even, const uint32_t* odd, int j) {
 /// reads per response becomes a unit-stride read the compiler vectorises, instead of 32
 /// strided table reads. Same sums modulo 2^32: bit-identical. `scratch` holds 10 (n + H).
 template <int L>
-void hessianRowStep2(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t stride, int n, float* out,
+SEAVIO_SURF_INLINE void hessianRowStep2(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t stride, int n, float* out,
                      uint32_t* scratch) {
   constexpr int H = (3 * L - 1) / 2, M = (L - 1) / 2;
   const std::ptrdiff_t k = n + H;  // column pairs from -H to 2 (n - 1) + H + 1
@@ -297,35 +306,31 @@ void hessianRowStep2(const HessianFilter& f, const uint32_t* base, std::ptrdiff_
 }
 
 /// det(H) over grid rows i0..i1 and columns j0..j1 of one layer (`det`, row pitch `cols`)
-/// with the fastest kernel for the filter (hessianLayerUnit, hessianRowStep2, hessianRowFixed,
-/// hessianRow).
-void hessianLayer(const HessianFilter& f, const uint32_t* sum, std::ptrdiff_t stride, int step, int i0, int i1,
-                  int j0, int j1, float* det, std::ptrdiff_t cols, uint32_t* scratch) {
-  const int l = f.size / 3;
-  const int n = j1 - j0 + 1;
-  const auto rows = [&](auto&& kernel) {
-    for (int i = i0; i <= i1; ++i) {
-      const uint32_t* base =
-          sum + static_cast<std::ptrdiff_t>(i) * step * stride + static_cast<std::ptrdiff_t>(j0) * step;
-      kernel(base, det + static_cast<std::ptrdiff_t>(i) * cols + j0);
-    }
-  };
-#define SEAVIO_SURF_FIXED(LOBE)                                                              \
-  case LOBE:                                                                                 \
-    if (step == 1) {                                                                         \
-      hessianLayerUnit<LOBE>(f, sum, stride, i0, i1, j0, n, det, cols, scratch);             \
-    } else if (step == 2) {                                                                  \
-      rows([&](const uint32_t* base, float* out) {                                           \
-        hessianRowStep2<LOBE>(f, base, stride, n, out, scratch);                             \
-      });                                                                                    \
-    } else {                                                                                 \
-      rows([&](const uint32_t* base, float* out) {                                           \
-        hessianRowFixed<LOBE, false>(f, base, stride, step, n, out);                         \
-      });                                                                                    \
-    }                                                                                        \
-    return;
+/// with the kernel for the filter's lobe (hessianLayerUnit at step 1, hessianRowStep2 at step
+/// 2, hessianRowFixed above); false if the lobe has no fixed kernel. Every kernel is inlined
+/// here, so each entry point below compiles the whole set for its instruction set.
+SEAVIO_SURF_INLINE bool hessianLayerFixed(const HessianFilter& f, const uint32_t* sum, std::ptrdiff_t stride,
+                                          int step, int i0, int i1, int j0, int n, float* det, std::ptrdiff_t cols,
+                                          uint32_t* scratch) {
+#define SEAVIO_SURF_FIXED(LOBE)                                                                                    \
+  case LOBE:                                                                                                       \
+    if (step == 1) {                                                                                               \
+      hessianLayerUnit<LOBE>(f, sum, stride, i0, i1, j0, n, det, cols, scratch);                                   \
+    } else {                                                                                                       \
+      for (int i = i0; i <= i1; ++i) {                                                                             \
+        const uint32_t* base =                                                                                     \
+            sum + static_cast<std::ptrdiff_t>(i) * step * stride + static_cast<std::ptrdiff_t>(j0) * step;         \
+        float* out = det + static_cast<std::ptrdiff_t>(i) * cols + j0;                                             \
+        if (step == 2) {                                                                                           \
+          hessianRowStep2<LOBE>(f, base, stride, n, out, scratch);                                                 \
+        } else {                                                                                                   \
+          hessianRowFixed<LOBE, false>(f, base, stride, step, n, out);                                             \
+        }                                                                                                          \
+      }                                                                                                            \
+    }                                                                                                              \
+    return true;
   // Lobes of the middle layers (the ones computed in full) of octaves 0-3, two layers each.
-  switch (l) {
+  switch (f.size / 3) {
     SEAVIO_SURF_FIXED(5)
     SEAVIO_SURF_FIXED(7)
     SEAVIO_SURF_FIXED(9)
@@ -334,13 +339,49 @@ void hessianLayer(const HessianFilter& f, const uint32_t* sum, std::ptrdiff_t st
     SEAVIO_SURF_FIXED(25)
     SEAVIO_SURF_FIXED(33)
     SEAVIO_SURF_FIXED(49)
-    default: break;
+    default: return false;
   }
 #undef SEAVIO_SURF_FIXED
-  if (step == 1) {
-    rows([&](const uint32_t* base, float* out) { hessianRow(f, base, 1, n, out); });
-  } else {
-    rows([&](const uint32_t* base, float* out) { hessianRow(f, base, step, n, out); });
+}
+
+/// hessianLayerFixed for the baseline instruction set (SSE2 on x86-64).
+SEAVIO_SURF_NOINLINE bool hessianLayerBaseline(const HessianFilter& f, const uint32_t* sum, std::ptrdiff_t stride,
+                                               int step, int i0, int i1, int j0, int n, float* det,
+                                               std::ptrdiff_t cols, uint32_t* scratch) {
+  return hessianLayerFixed(f, sum, stride, step, i0, i1, j0, n, det, cols, scratch);
+}
+
+#if SEAVIO_SURF_AVX2
+/// hessianLayerFixed compiled for AVX2 (eight responses per vector step instead of four),
+/// called only when the CPU has AVX2 (Surf::Surf). AVX2 without FMA: the compiler cannot
+/// contract a multiply and a subtraction, so every lane performs the baseline's integer and
+/// float operations in the same order and the responses are bit-identical (SurfAvx2.*).
+__attribute__((target("avx2"))) SEAVIO_SURF_NOINLINE bool hessianLayerAvx2(
+    const HessianFilter& f, const uint32_t* sum, std::ptrdiff_t stride, int step, int i0, int i1, int j0, int n,
+    float* det, std::ptrdiff_t cols, uint32_t* scratch) {
+  return hessianLayerFixed(f, sum, stride, step, i0, i1, j0, n, det, cols, scratch);
+}
+#endif
+
+/// det(H) over grid rows i0..i1 and columns j0..j1 of one layer (`det`, row pitch `cols`)
+/// with the fastest kernel for the filter: hessianLayerFixed (AVX2 when `avx2`), else the
+/// generic hessianRow.
+void hessianLayer(const HessianFilter& f, const uint32_t* sum, std::ptrdiff_t stride, int step, int i0, int i1,
+                  int j0, int j1, float* det, std::ptrdiff_t cols, uint32_t* scratch, bool avx2) {
+  const int n = j1 - j0 + 1;
+#if SEAVIO_SURF_AVX2
+  if (avx2 ? hessianLayerAvx2(f, sum, stride, step, i0, i1, j0, n, det, cols, scratch)
+           : hessianLayerBaseline(f, sum, stride, step, i0, i1, j0, n, det, cols, scratch)) {
+    return;
+  }
+#else
+  (void)avx2;
+  if (hessianLayerBaseline(f, sum, stride, step, i0, i1, j0, n, det, cols, scratch)) return;
+#endif
+  for (int i = i0; i <= i1; ++i) {
+    const uint32_t* base =
+        sum + static_cast<std::ptrdiff_t>(i) * step * stride + static_cast<std::ptrdiff_t>(j0) * step;
+    hessianRow(f, base, step, n, det + static_cast<std::ptrdiff_t>(i) * cols + j0);
   }
 }
 
@@ -371,6 +412,14 @@ SEAVIO_SURF_INLINE float boxMeanInside(const uint32_t* sum, std::ptrdiff_t strid
 inline int floorInt(float x) {
   const int i = static_cast<int>(x);
   return i - (static_cast<float>(i) > x);
+}
+
+/// std::lround(x) without the libm call (the border path of the cell sampler calls it per
+/// sample): x + 0.5 is exact in double for any float below 2^52, so truncating |x| + 0.5
+/// rounds halves away from zero exactly as lround does.
+inline long roundInt(float x) {
+  const double d = x;
+  return d >= 0.0 ? static_cast<long>(d + 0.5) : -static_cast<long>(-d + 0.5);
 }
 
 /// Valid grid index range [lo, hi] of a filter of side `size` sampled every `step` pixels
@@ -519,8 +568,8 @@ inline float bilinear(const cv::Mat& img, float x, float y) {
     const uint8_t* q = p + img.step[0];
     return (1.f - b) * ((1.f - a) * p[0] + a * p[1]) + b * ((1.f - a) * q[0] + a * q[1]);
   }
-  const int cx = std::clamp(static_cast<int>(std::lround(x)), 0, img.cols - 1);
-  const int cy = std::clamp(static_cast<int>(std::lround(y)), 0, img.rows - 1);
+  const int cx = std::clamp(static_cast<int>(roundInt(x)), 0, img.cols - 1);
+  const int cy = std::clamp(static_cast<int>(roundInt(y)), 0, img.rows - 1);
   return img.at<uint8_t>(cy, cx);
 }
 
@@ -727,6 +776,9 @@ Surf::Surf(SurfParams params) : params_(params) {
     for (const auto& e : errors) msg += " " + e + ";";
     throw std::invalid_argument(msg);
   }
+#if SEAVIO_SURF_AVX2
+  use_avx2_ = params_.avx2 && __builtin_cpu_supports("avx2");
+#endif
   for (int v = -kOriRadius; v <= kOriRadius; ++v) {
     for (int u = -kOriRadius; u <= kOriRadius; ++u) {
       if (u * u + v * v > kOriRadius * kOriRadius) continue;
@@ -836,7 +888,7 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
       validRange(filters[layer].size, step, height, i0, i1);
       validRange(filters[layer].size, step, width, j0, j1);
       float* det = layers.get() + plane * (layer - 1);
-      hessianLayer(filters[layer], sum, stride, step, i0, i1, j0, j1, det, cols, row_scratch);
+      hessianLayer(filters[layer], sum, stride, step, i0, i1, j0, j1, det, cols, row_scratch, use_avx2_);
     }
 
     for (int layer = 1; layer <= n_full; ++layer) {
@@ -937,8 +989,8 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
     }
     if (box <= width && box <= height) {
       // Near the border: the box shifted inside the image (replicates the edge).
-      const int cx = std::clamp(static_cast<int>(std::lround(fx)), 0, width - box);
-      const int cy = std::clamp(static_cast<int>(std::lround(fy)), 0, height - box);
+      const int cx = std::clamp(static_cast<int>(roundInt(fx)), 0, width - box);
+      const int cy = std::clamp(static_cast<int>(roundInt(fy)), 0, height - box);
       return static_cast<float>(integral.boxSum(cx, cy, cx + box, cy + box)) * inv_box2;
     }
     return bilinear(gray8, px, py);
