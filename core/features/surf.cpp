@@ -593,10 +593,26 @@ struct CellSampler {
   /// out[i] = mean grey level of the box x box cell centred at (px[i], py[i]), i < n; `out`
   /// has room for n rounded up to a multiple of 4. `fallback(px, py)` for the samples near
   /// the border (cellMean's general path).
+  /// Not inlined into Surf::run: inlined it compiled to more instructions (register
+  /// pressure). sampleAvx2 is the same code compiled for AVX2 (bit-identical: no FMA).
   template <typename Fallback>
-  // Not inlined: inlined into Surf::run it compiled to more instructions (register pressure).
   SEAVIO_SURF_NOINLINE void sample(int n, int box, float inv_box2, const uint32_t* sum, std::ptrdiff_t stride,
                                    const cv::Mat& gray8, float* out, Fallback&& fallback) {
+    sampleImpl(n, box, inv_box2, sum, stride, gray8, out, fallback);
+  }
+#if SEAVIO_SURF_AVX2
+  template <typename Fallback>
+  __attribute__((target("avx2"))) SEAVIO_SURF_NOINLINE void sampleAvx2(int n, int box, float inv_box2,
+                                                                      const uint32_t* sum, std::ptrdiff_t stride,
+                                                                      const cv::Mat& gray8, float* out,
+                                                                      Fallback&& fallback) {
+    sampleImpl(n, box, inv_box2, sum, stride, gray8, out, fallback);
+  }
+#endif
+
+  template <typename Fallback>
+  SEAVIO_SURF_INLINE void sampleImpl(int n, int box, float inv_box2, const uint32_t* sum, std::ptrdiff_t stride,
+                                     const cv::Mat& gray8, float* out, Fallback& fallback) {
     const int width = gray8.cols, height = gray8.rows;
     const float half = static_cast<float>(box - 1) * 0.5f;
     const int x_last = width - box - 1, y_last = height - box - 1;
@@ -830,6 +846,19 @@ void Surf::detect(const cv::Mat& gray8, double hessian_threshold, std::vector<cv
 
 void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
                cv::Mat* descriptors, SurfWorkspace& workspace) const {
+#if SEAVIO_SURF_AVX2
+  if (use_avx2_) {
+    runAvx2(gray8, hessian_threshold, keypoints, descriptors, workspace);
+    return;
+  }
+#endif
+  runBaseline(gray8, hessian_threshold, keypoints, descriptors, workspace);
+}
+
+template <bool kAvx2>
+SEAVIO_SURF_INLINE void Surf::runWith(const cv::Mat& gray8, double hessian_threshold,
+                                      std::vector<cv::KeyPoint>& keypoints, cv::Mat* descriptors,
+                                      SurfWorkspace& workspace) const {
   keypoints.clear();
   // One allocation up front instead of a dozen regrowths (a caller reusing its vector pays none).
   keypoints.reserve(1024);
@@ -888,7 +917,7 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
       validRange(filters[layer].size, step, height, i0, i1);
       validRange(filters[layer].size, step, width, j0, j1);
       float* det = layers.get() + plane * (layer - 1);
-      hessianLayer(filters[layer], sum, stride, step, i0, i1, j0, j1, det, cols, row_scratch, use_avx2_);
+      hessianLayer(filters[layer], sum, stride, step, i0, i1, j0, j1, det, cols, row_scratch, kAvx2);
     }
 
     for (int layer = 1; layer <= n_full; ++layer) {
@@ -996,6 +1025,15 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
     return bilinear(gray8, px, py);
   };
   CellSampler sampler;
+  const auto sampleCells = [&](int n, int box, float inv_box2, float* out, auto&& fallback) {
+#if SEAVIO_SURF_AVX2
+    if constexpr (kAvx2) {
+      sampler.sampleAvx2(n, box, inv_box2, sum, stride, gray8, out, fallback);
+      return;
+    }
+#endif
+    sampler.sample(n, box, inv_box2, sum, stride, gray8, out, fallback);
+  };
   std::size_t kept = 0;
   for (std::size_t k = 0; k < keypoints.size(); ++k) {
     cv::KeyPoint kp = keypoints[k];
@@ -1019,7 +1057,7 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
           sampler.py[(v + kG) * kGW + (u + kG)] = kp.pt.y + v * s;
         }
       }
-      sampler.sample(kGW * kGW, obox, inv_obox2, sum, stride, gray8, grid.data(),
+      sampleCells(kGW * kGW, obox, inv_obox2, grid.data(),
                      [&](float x, float y) { return cellMean(x, y, obox, inv_obox2); });
       std::size_t n = 0;
 #if defined(__SSE2__)
@@ -1132,7 +1170,7 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
           sampler.py[r * (kPatch + 1) + c] = kp.pt.y + du * sn + dv * cs;
         }
       }
-      sampler.sample((kPatch + 1) * (kPatch + 1), box, inv_box2, sum, stride, gray8, patch.data(),
+      sampleCells((kPatch + 1) * (kPatch + 1), box, inv_box2, patch.data(),
                      [&](float x, float y) { return cellMean(x, y, box, inv_box2); });
       float* vec = descriptors->ptr<float>(static_cast<int>(kept));
 #if defined(__SSE2__)
@@ -1211,5 +1249,24 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
   keypoints.resize(kept);
   if (descriptors != nullptr) descriptors->resize(kept);  // in place: rows 0..kept-1 are the kept ones
 }
+
+SEAVIO_SURF_NOINLINE void Surf::runBaseline(const cv::Mat& gray8, double hessian_threshold,
+                                            std::vector<cv::KeyPoint>& keypoints, cv::Mat* descriptors,
+                                            SurfWorkspace& workspace) const {
+  runWith<false>(gray8, hessian_threshold, keypoints, descriptors, workspace);
+}
+
+#if SEAVIO_SURF_AVX2
+/// The whole call compiled for AVX2: box filters eight responses per step, the rest of the
+/// vectorised and SSE2 code in three-operand VEX form (fewer register copies). No FMA, so
+/// every float operation is the baseline's: bit-identical output.
+__attribute__((target("avx2"))) SEAVIO_SURF_NOINLINE void Surf::runAvx2(const cv::Mat& gray8,
+                                                                        double hessian_threshold,
+                                                                        std::vector<cv::KeyPoint>& keypoints,
+                                                                        cv::Mat* descriptors,
+                                                                        SurfWorkspace& workspace) const {
+  runWith<true>(gray8, hessian_threshold, keypoints, descriptors, workspace);
+}
+#endif
 
 }  // namespace seavio::features

@@ -94,6 +94,14 @@ class Surf {
  private:
   void run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
            cv::Mat* descriptors, SurfWorkspace& workspace) const;
+  /// run's body (runWith) compiled for the baseline instruction set and for AVX2 (x86-64).
+  void runBaseline(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
+                   cv::Mat* descriptors, SurfWorkspace& workspace) const;
+  void runAvx2(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
+               cv::Mat* descriptors, SurfWorkspace& workspace) const;
+  template <bool kAvx2>
+  void runWith(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
+               cv::Mat* descriptors, SurfWorkspace& workspace) const;
 
   SurfParams params_;
   bool use_avx2_ = false;  ///< params_.avx2 and the CPU has AVX2
