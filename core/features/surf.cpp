@@ -40,6 +40,33 @@ constexpr int kOriSamples = [] {
   return n;
 }();
 
+/// The orientation's grid of cell means reaches 2 cells beyond the disc (the Scharr stencil on
+/// cells two apart): kOriGrid cells either side of the keypoint.
+constexpr int kOriGrid = kOriRadius + 2;
+/// Per grid row v = -kOriGrid..kOriGrid, the cells the stencil reads (first u, count): disc
+/// rows v and v +- 2, widened by 2. 225 of the 17 x 17 cells; the corners are never read.
+constexpr auto kOriGridRows = [] {
+  std::array<std::array<int, 2>, 2 * kOriGrid + 1> rows{};
+  for (int v = -kOriGrid; v <= kOriGrid; ++v) {
+    int lo = kOriGrid + 1, hi = -kOriGrid - 1;
+    for (int b = -2; b <= 2; b += 2) {
+      const int dv = v - b;
+      if (dv < -kOriRadius || dv > kOriRadius) continue;
+      int w = 0;  // disc row dv spans u = -w..w
+      while ((w + 1) * (w + 1) + dv * dv <= kOriRadius * kOriRadius) ++w;
+      lo = std::min(lo, -w - 2);
+      hi = std::max(hi, w + 2);
+    }
+    rows[v + kOriGrid] = {lo, hi >= lo ? hi - lo + 1 : 0};
+  }
+  return rows;
+}();
+constexpr int kOriGridCells = [] {
+  int n = 0;
+  for (const auto& r : kOriGridRows) n += r[1];
+  return n;
+}();
+
 /// A box sum S(a) - S(b) - S(c) + S(d) expressed as offsets from S(x, y) of the filter
 /// centre; unsigned arithmetic so a wrapped table still gives the exact sum.
 struct Box {
@@ -485,17 +512,18 @@ constexpr int cellMajor(int r, int c) { return r * kPatch + (c % 5) * 4 + c / 5;
 
 constexpr int kScanBlock = 16;
 
-/// True if any of the kScanBlock responses at `v` exceeds `threshold`.
-inline bool anyAbove(const float* v, float threshold) {
+/// Bit k set if response v[k] exceeds `threshold`, k < kScanBlock.
+inline unsigned aboveMask(const float* v, float threshold) {
 #if defined(__SSE2__)
   const __m128 t = _mm_set1_ps(threshold);
-  const __m128 a = _mm_or_ps(_mm_cmpgt_ps(_mm_loadu_ps(v), t), _mm_cmpgt_ps(_mm_loadu_ps(v + 4), t));
-  const __m128 b = _mm_or_ps(_mm_cmpgt_ps(_mm_loadu_ps(v + 8), t), _mm_cmpgt_ps(_mm_loadu_ps(v + 12), t));
-  return _mm_movemask_ps(_mm_or_ps(a, b)) != 0;
+  return static_cast<unsigned>(_mm_movemask_ps(_mm_cmpgt_ps(_mm_loadu_ps(v), t))) |
+         static_cast<unsigned>(_mm_movemask_ps(_mm_cmpgt_ps(_mm_loadu_ps(v + 4), t))) << 4 |
+         static_cast<unsigned>(_mm_movemask_ps(_mm_cmpgt_ps(_mm_loadu_ps(v + 8), t))) << 8 |
+         static_cast<unsigned>(_mm_movemask_ps(_mm_cmpgt_ps(_mm_loadu_ps(v + 12), t))) << 12;
 #else
-  int any = 0;
-  for (int k = 0; k < kScanBlock; ++k) any |= v[k] > threshold;
-  return any != 0;
+  unsigned mask = 0;
+  for (int k = 0; k < kScanBlock; ++k) mask |= static_cast<unsigned>(v[k] > threshold) << k;
+  return mask;
 #endif
 }
 
@@ -935,11 +963,18 @@ SEAVIO_SURF_INLINE void Surf::runWith(const cv::Mat& gray8, double hessian_thres
         const float* row = here + static_cast<std::size_t>(i) * cols;
         for (int jb = j0 + 1; jb <= j1 - 1; jb += kScanBlock) {
           const int je = std::min(jb + kScanBlock, j1);  // exclusive
-          // Nearly every response is below the threshold: one vectorised test per block.
-          if (je - jb == kScanBlock && !anyAbove(row + jb, threshold)) continue;
-          for (int j = jb; j < je; ++j) {
+          // Most responses are below the threshold: one vectorised test per block, then only
+          // the columns above it, in order (the same candidates as testing each column).
+          unsigned above = 0;
+          if (je - jb == kScanBlock) {
+            above = aboveMask(row + jb, threshold);
+          } else {
+            for (int j = jb; j < je; ++j) above |= static_cast<unsigned>(row[j] > threshold) << (j - jb);
+          }
+          while (above != 0) {
+            const int j = jb + __builtin_ctz(above);
+            above &= above - 1;
             const float v = row[j];
-            if (!(v > threshold)) continue;
             // Cheapest first: the 8 neighbours in this layer (rows above and below in memory).
             const float* up = row - cols;
             const float* dn = row + cols;
@@ -1005,6 +1040,13 @@ SEAVIO_SURF_INLINE void Surf::runWith(const cv::Mat& gray8, double hessian_thres
   alignas(16) std::array<float, kOriMax> gx{}, gy{}, ang{};
   std::array<float, 360 + kOriWindowDeg> bin_x{}, bin_y{};
   alignas(16) std::array<float, CellSampler::kPad> patch{};
+  // Orientation: the (2 kG + 1)^2 grid of cell means around a keypoint, zeros where never
+  // sampled (read only by lanes whose results are dropped), and its sampled cells in order.
+  constexpr int kG = kOriGrid;
+  constexpr int kGW = 2 * kG + 1;
+  alignas(16) std::array<float, (kGW * kGW + 3) / 4 * 4> grid{};
+  alignas(16) std::array<float, (kOriGridCells + 3) / 4 * 4> cells{};
+  static_assert(kOriGridCells <= CellSampler::kMax, "the sampled cells fit the sampler");
   std::array<float, kPatch * kPatch> pdx{}, pdy{};
   // Mean grey level of the box x box cell centred at (px, py) [px]: the integral image at the
   // sub-pixel centre (bilinear blend of the four integer placements); plain bilinear for box 1.
@@ -1046,19 +1088,26 @@ SEAVIO_SURF_INLINE void Surf::runWith(const cv::Mat& gray8, double hessian_thres
       // sub-pixel positions, differentiated with a Scharr kernel on cells two apart (derivative
       // scale ~2 s like the wavelet, nearly isotropic): median orientation error on a 30 deg
       // rotation 1.75 deg instead of 5.6.
-      constexpr int kG = kOriRadius + 2;
-      constexpr int kGW = 2 * kG + 1;
-      alignas(16) std::array<float, (kGW * kGW + 3) / 4 * 4> grid;
+      // Only the cells the stencil reads are sampled (kOriGridRows: 225 of 289), into `cells`
+      // in row order, then placed in the grid; the unread corners keep their initial zeros.
       const int obox = std::max(1, static_cast<int>(std::lround(3.f * s)));  // smoothing box [px]
       const float inv_obox2 = 1.f / static_cast<float>(obox * obox);
+      int m = 0;
       for (int v = -kG; v <= kG; ++v) {
-        for (int u = -kG; u <= kG; ++u) {
-          sampler.px[(v + kG) * kGW + (u + kG)] = kp.pt.x + u * s;
-          sampler.py[(v + kG) * kGW + (u + kG)] = kp.pt.y + v * s;
+        const int u0 = kOriGridRows[v + kG][0], count = kOriGridRows[v + kG][1];
+        for (int u = u0; u < u0 + count; ++u, ++m) {
+          sampler.px[m] = kp.pt.x + u * s;
+          sampler.py[m] = kp.pt.y + v * s;
         }
       }
-      sampleCells(kGW * kGW, obox, inv_obox2, grid.data(),
-                     [&](float x, float y) { return cellMean(x, y, obox, inv_obox2); });
+      sampleCells(m, obox, inv_obox2, cells.data(),
+                  [&](float x, float y) { return cellMean(x, y, obox, inv_obox2); });
+      m = 0;
+      for (int v = -kG; v <= kG; ++v) {
+        const int u0 = kOriGridRows[v + kG][0], count = kOriGridRows[v + kG][1];
+        std::copy(cells.data() + m, cells.data() + m + count, grid.data() + (v + kG) * kGW + (u0 + kG));
+        m += count;
+      }
       std::size_t n = 0;
 #if defined(__SSE2__)
       // Four samples of a disc row at once (same operations per lane as the scalar loop below;
