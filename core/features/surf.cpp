@@ -16,6 +16,13 @@
 #include <emmintrin.h>  // baseline on x86-64: no -march flag needed
 #endif
 
+// AVX2 kernels beside the baseline ones, chosen at run time (GCC and Clang on x86-64).
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define SEAVIO_SURF_AVX2 1
+#else
+#define SEAVIO_SURF_AVX2 0
+#endif
+
 namespace seavio::features {
 namespace {
 
@@ -30,6 +37,33 @@ constexpr int kOriSamples = [] {
   int n = 0;
   for (int v = -kOriRadius; v <= kOriRadius; ++v)
     for (int u = -kOriRadius; u <= kOriRadius; ++u) n += u * u + v * v <= kOriRadius * kOriRadius;
+  return n;
+}();
+
+/// The orientation's grid of cell means reaches 2 cells beyond the disc (the Scharr stencil on
+/// cells two apart): kOriGrid cells either side of the keypoint.
+constexpr int kOriGrid = kOriRadius + 2;
+/// Per grid row v = -kOriGrid..kOriGrid, the cells the stencil reads (first u, count): disc
+/// rows v and v +- 2, widened by 2. 225 of the 17 x 17 cells; the corners are never read.
+constexpr auto kOriGridRows = [] {
+  std::array<std::array<int, 2>, 2 * kOriGrid + 1> rows{};
+  for (int v = -kOriGrid; v <= kOriGrid; ++v) {
+    int lo = kOriGrid + 1, hi = -kOriGrid - 1;
+    for (int b = -2; b <= 2; b += 2) {
+      const int dv = v - b;
+      if (dv < -kOriRadius || dv > kOriRadius) continue;
+      int w = 0;  // disc row dv spans u = -w..w
+      while ((w + 1) * (w + 1) + dv * dv <= kOriRadius * kOriRadius) ++w;
+      lo = std::min(lo, -w - 2);
+      hi = std::max(hi, w + 2);
+    }
+    rows[v + kOriGrid] = {lo, hi >= lo ? hi - lo + 1 : 0};
+  }
+  return rows;
+}();
+constexpr int kOriGridCells = [] {
+  int n = 0;
+  for (const auto& r : kOriGridRows) n += r[1];
   return n;
 }();
 
@@ -77,9 +111,11 @@ struct HessianFilter {
 #if defined(__GNUC__)
 #define SEAVIO_SURF_INLINE inline __attribute__((always_inline))
 #define SEAVIO_SURF_NOINLINE __attribute__((noinline))
+#define SEAVIO_SURF_LAMBDA_INLINE __attribute__((always_inline))
 #else
 #define SEAVIO_SURF_INLINE inline
 #define SEAVIO_SURF_NOINLINE
+#define SEAVIO_SURF_LAMBDA_INLINE
 #endif
 
 /// det(H) = Dxx Dyy - (0.9 Dxy)^2 (Bay 2008, eq. 4) from the eight box sums of one filter
@@ -126,7 +162,7 @@ inline void hessianRow(const HessianFilter& f, const uint32_t* base, std::ptrdif
 /// hessianRowStep2). Same integer arithmetic (exact modulo 2^32) and float operations as
 /// hessianRow: bit-identical.
 template <int L, bool kUnitStep>
-void hessianRowFixed(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t stride,
+SEAVIO_SURF_INLINE void hessianRowFixed(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t stride,
                      std::ptrdiff_t step_arg, int n, float* out) {
   constexpr int H = (3 * L - 1) / 2, M = (L - 1) / 2;
   const std::ptrdiff_t step = kUnitStep ? 1 : step_arg;
@@ -166,7 +202,7 @@ void hessianRowFixed(const HessianFilter& f, const uint32_t* base, std::ptrdiff_
 /// vertical L-row sums at rows i - M, i - L and i + 1, so hessianLayerUnit forms each once
 /// and passes it to three output rows (`fm`, `d1`, `d2`, at the first output column).
 template <int L>
-void hessianRowUnit(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t stride, int n, float* out,
+SEAVIO_SURF_INLINE void hessianRowUnit(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t stride, int n, float* out,
                     uint32_t* scratch, const uint32_t* fm, const uint32_t* d1, const uint32_t* d2) {
   constexpr int H = (3 * L - 1) / 2, M = (L - 1) / 2;
   const std::ptrdiff_t span = n + 2 * H + 1;  // columns -H .. n + H
@@ -201,14 +237,14 @@ void hessianRowUnit(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t
 /// L + 2 rows, each formed once and read by the rows i = r + M (yy middle), r + L (xy upper)
 /// and r - 1 (xy lower). `scratch` holds (L + 4) (n + 3 L) entries.
 template <int L>
-void hessianLayerUnit(const HessianFilter& f, const uint32_t* sum, std::ptrdiff_t stride, int i0, int i1, int j0,
+SEAVIO_SURF_INLINE void hessianLayerUnit(const HessianFilter& f, const uint32_t* sum, std::ptrdiff_t stride, int i0, int i1, int j0,
                       int n, float* det, std::ptrdiff_t cols, uint32_t* scratch) {
   constexpr int H = (3 * L - 1) / 2, M = (L - 1) / 2, kRing = L + 2;
   const std::ptrdiff_t span = n + 2 * H + 1;
   uint32_t* ring = scratch + 2 * span;
   std::array<int, kRing> ring_row;
   ring_row.fill(-1);
-  const auto vrow = [&](int r) -> const uint32_t* {  // r >= i0 - L >= 0
+  const auto vrow = [&](int r) SEAVIO_SURF_LAMBDA_INLINE -> const uint32_t* {  // r >= i0 - L >= 0
     const int slot = r % kRing;
     uint32_t* v = ring + slot * span;
     if (ring_row[slot] != r) {
@@ -230,7 +266,7 @@ void hessianLayerUnit(const HessianFilter& f, const uint32_t* sum, std::ptrdiff_
 
 /// Table row difference b - a over the 2 k columns starting at `a`/`b`, split by column parity:
 /// even[q] = b[2 q] - a[2 q], odd[q] = b[2 q + 1] - a[2 q + 1], q < k.
-inline void rowDifferenceSplit(const uint32_t* a, const uint32_t* b, std::ptrdiff_t k, uint32_t* even,
+SEAVIO_SURF_INLINE void rowDifferenceSplit(const uint32_t* a, const uint32_t* b, std::ptrdiff_t k, uint32_t* even,
                                uint32_t* odd) {
   std::ptrdiff_t q = 0;
 #if defined(__SSE2__)
@@ -253,7 +289,7 @@ inline void rowDifferenceSplit(const uint32_t* a, const uint32_t* b, std::ptrdif
 /// Entry at column offset O (relative to the filter centre, >= -H) of a row difference split
 /// by hessianRowStep2, for output j.
 template <int O, int H>
-inline uint32_t splitAt(const uint32_t* even, const uint32_t* odd, int j) {
+SEAVIO_SURF_INLINE uint32_t splitAt(const uint32_t* even, const uint32_t* odd, int j) {
   constexpr int d = O + H;
   static_assert(d >= 0, "offset inside the split row");
   if constexpr (d % 2 == 0) {
@@ -268,7 +304,7 @@ inline uint32_t splitAt(const uint32_t* even, const uint32_t* odd, int j) {
 /// reads per response becomes a unit-stride read the compiler vectorises, instead of 32
 /// strided table reads. Same sums modulo 2^32: bit-identical. `scratch` holds 10 (n + H).
 template <int L>
-void hessianRowStep2(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t stride, int n, float* out,
+SEAVIO_SURF_INLINE void hessianRowStep2(const HessianFilter& f, const uint32_t* base, std::ptrdiff_t stride, int n, float* out,
                      uint32_t* scratch) {
   constexpr int H = (3 * L - 1) / 2, M = (L - 1) / 2;
   const std::ptrdiff_t k = n + H;  // column pairs from -H to 2 (n - 1) + H + 1
@@ -297,35 +333,31 @@ void hessianRowStep2(const HessianFilter& f, const uint32_t* base, std::ptrdiff_
 }
 
 /// det(H) over grid rows i0..i1 and columns j0..j1 of one layer (`det`, row pitch `cols`)
-/// with the fastest kernel for the filter (hessianLayerUnit, hessianRowStep2, hessianRowFixed,
-/// hessianRow).
-void hessianLayer(const HessianFilter& f, const uint32_t* sum, std::ptrdiff_t stride, int step, int i0, int i1,
-                  int j0, int j1, float* det, std::ptrdiff_t cols, uint32_t* scratch) {
-  const int l = f.size / 3;
-  const int n = j1 - j0 + 1;
-  const auto rows = [&](auto&& kernel) {
-    for (int i = i0; i <= i1; ++i) {
-      const uint32_t* base =
-          sum + static_cast<std::ptrdiff_t>(i) * step * stride + static_cast<std::ptrdiff_t>(j0) * step;
-      kernel(base, det + static_cast<std::ptrdiff_t>(i) * cols + j0);
-    }
-  };
-#define SEAVIO_SURF_FIXED(LOBE)                                                              \
-  case LOBE:                                                                                 \
-    if (step == 1) {                                                                         \
-      hessianLayerUnit<LOBE>(f, sum, stride, i0, i1, j0, n, det, cols, scratch);             \
-    } else if (step == 2) {                                                                  \
-      rows([&](const uint32_t* base, float* out) {                                           \
-        hessianRowStep2<LOBE>(f, base, stride, n, out, scratch);                             \
-      });                                                                                    \
-    } else {                                                                                 \
-      rows([&](const uint32_t* base, float* out) {                                           \
-        hessianRowFixed<LOBE, false>(f, base, stride, step, n, out);                         \
-      });                                                                                    \
-    }                                                                                        \
-    return;
+/// with the kernel for the filter's lobe (hessianLayerUnit at step 1, hessianRowStep2 at step
+/// 2, hessianRowFixed above); false if the lobe has no fixed kernel. Every kernel is inlined
+/// here, so each entry point below compiles the whole set for its instruction set.
+SEAVIO_SURF_INLINE bool hessianLayerFixed(const HessianFilter& f, const uint32_t* sum, std::ptrdiff_t stride,
+                                          int step, int i0, int i1, int j0, int n, float* det, std::ptrdiff_t cols,
+                                          uint32_t* scratch) {
+#define SEAVIO_SURF_FIXED(LOBE)                                                                                    \
+  case LOBE:                                                                                                       \
+    if (step == 1) {                                                                                               \
+      hessianLayerUnit<LOBE>(f, sum, stride, i0, i1, j0, n, det, cols, scratch);                                   \
+    } else {                                                                                                       \
+      for (int i = i0; i <= i1; ++i) {                                                                             \
+        const uint32_t* base =                                                                                     \
+            sum + static_cast<std::ptrdiff_t>(i) * step * stride + static_cast<std::ptrdiff_t>(j0) * step;         \
+        float* out = det + static_cast<std::ptrdiff_t>(i) * cols + j0;                                             \
+        if (step == 2) {                                                                                           \
+          hessianRowStep2<LOBE>(f, base, stride, n, out, scratch);                                                 \
+        } else {                                                                                                   \
+          hessianRowFixed<LOBE, false>(f, base, stride, step, n, out);                                             \
+        }                                                                                                          \
+      }                                                                                                            \
+    }                                                                                                              \
+    return true;
   // Lobes of the middle layers (the ones computed in full) of octaves 0-3, two layers each.
-  switch (l) {
+  switch (f.size / 3) {
     SEAVIO_SURF_FIXED(5)
     SEAVIO_SURF_FIXED(7)
     SEAVIO_SURF_FIXED(9)
@@ -334,13 +366,49 @@ void hessianLayer(const HessianFilter& f, const uint32_t* sum, std::ptrdiff_t st
     SEAVIO_SURF_FIXED(25)
     SEAVIO_SURF_FIXED(33)
     SEAVIO_SURF_FIXED(49)
-    default: break;
+    default: return false;
   }
 #undef SEAVIO_SURF_FIXED
-  if (step == 1) {
-    rows([&](const uint32_t* base, float* out) { hessianRow(f, base, 1, n, out); });
-  } else {
-    rows([&](const uint32_t* base, float* out) { hessianRow(f, base, step, n, out); });
+}
+
+/// hessianLayerFixed for the baseline instruction set (SSE2 on x86-64).
+SEAVIO_SURF_NOINLINE bool hessianLayerBaseline(const HessianFilter& f, const uint32_t* sum, std::ptrdiff_t stride,
+                                               int step, int i0, int i1, int j0, int n, float* det,
+                                               std::ptrdiff_t cols, uint32_t* scratch) {
+  return hessianLayerFixed(f, sum, stride, step, i0, i1, j0, n, det, cols, scratch);
+}
+
+#if SEAVIO_SURF_AVX2
+/// hessianLayerFixed compiled for AVX2 (eight responses per vector step instead of four),
+/// called only when the CPU has AVX2 (Surf::Surf). AVX2 without FMA: the compiler cannot
+/// contract a multiply and a subtraction, so every lane performs the baseline's integer and
+/// float operations in the same order and the responses are bit-identical (SurfAvx2.*).
+__attribute__((target("avx2"))) SEAVIO_SURF_NOINLINE bool hessianLayerAvx2(
+    const HessianFilter& f, const uint32_t* sum, std::ptrdiff_t stride, int step, int i0, int i1, int j0, int n,
+    float* det, std::ptrdiff_t cols, uint32_t* scratch) {
+  return hessianLayerFixed(f, sum, stride, step, i0, i1, j0, n, det, cols, scratch);
+}
+#endif
+
+/// det(H) over grid rows i0..i1 and columns j0..j1 of one layer (`det`, row pitch `cols`)
+/// with the fastest kernel for the filter: hessianLayerFixed (AVX2 when `avx2`), else the
+/// generic hessianRow.
+void hessianLayer(const HessianFilter& f, const uint32_t* sum, std::ptrdiff_t stride, int step, int i0, int i1,
+                  int j0, int j1, float* det, std::ptrdiff_t cols, uint32_t* scratch, bool avx2) {
+  const int n = j1 - j0 + 1;
+#if SEAVIO_SURF_AVX2
+  if (avx2 ? hessianLayerAvx2(f, sum, stride, step, i0, i1, j0, n, det, cols, scratch)
+           : hessianLayerBaseline(f, sum, stride, step, i0, i1, j0, n, det, cols, scratch)) {
+    return;
+  }
+#else
+  (void)avx2;
+  if (hessianLayerBaseline(f, sum, stride, step, i0, i1, j0, n, det, cols, scratch)) return;
+#endif
+  for (int i = i0; i <= i1; ++i) {
+    const uint32_t* base =
+        sum + static_cast<std::ptrdiff_t>(i) * step * stride + static_cast<std::ptrdiff_t>(j0) * step;
+    hessianRow(f, base, step, n, det + static_cast<std::ptrdiff_t>(i) * cols + j0);
   }
 }
 
@@ -371,6 +439,14 @@ SEAVIO_SURF_INLINE float boxMeanInside(const uint32_t* sum, std::ptrdiff_t strid
 inline int floorInt(float x) {
   const int i = static_cast<int>(x);
   return i - (static_cast<float>(i) > x);
+}
+
+/// std::lround(x) without the libm call (the border path of the cell sampler calls it per
+/// sample): x + 0.5 is exact in double for any float below 2^52, so truncating |x| + 0.5
+/// rounds halves away from zero exactly as lround does.
+inline long roundInt(float x) {
+  const double d = x;
+  return d >= 0.0 ? static_cast<long>(d + 0.5) : -static_cast<long>(-d + 0.5);
 }
 
 /// Valid grid index range [lo, hi] of a filter of side `size` sampled every `step` pixels
@@ -436,17 +512,18 @@ constexpr int cellMajor(int r, int c) { return r * kPatch + (c % 5) * 4 + c / 5;
 
 constexpr int kScanBlock = 16;
 
-/// True if any of the kScanBlock responses at `v` exceeds `threshold`.
-inline bool anyAbove(const float* v, float threshold) {
+/// Bit k set if response v[k] exceeds `threshold`, k < kScanBlock.
+inline unsigned aboveMask(const float* v, float threshold) {
 #if defined(__SSE2__)
   const __m128 t = _mm_set1_ps(threshold);
-  const __m128 a = _mm_or_ps(_mm_cmpgt_ps(_mm_loadu_ps(v), t), _mm_cmpgt_ps(_mm_loadu_ps(v + 4), t));
-  const __m128 b = _mm_or_ps(_mm_cmpgt_ps(_mm_loadu_ps(v + 8), t), _mm_cmpgt_ps(_mm_loadu_ps(v + 12), t));
-  return _mm_movemask_ps(_mm_or_ps(a, b)) != 0;
+  return static_cast<unsigned>(_mm_movemask_ps(_mm_cmpgt_ps(_mm_loadu_ps(v), t))) |
+         static_cast<unsigned>(_mm_movemask_ps(_mm_cmpgt_ps(_mm_loadu_ps(v + 4), t))) << 4 |
+         static_cast<unsigned>(_mm_movemask_ps(_mm_cmpgt_ps(_mm_loadu_ps(v + 8), t))) << 8 |
+         static_cast<unsigned>(_mm_movemask_ps(_mm_cmpgt_ps(_mm_loadu_ps(v + 12), t))) << 12;
 #else
-  int any = 0;
-  for (int k = 0; k < kScanBlock; ++k) any |= v[k] > threshold;
-  return any != 0;
+  unsigned mask = 0;
+  for (int k = 0; k < kScanBlock; ++k) mask |= static_cast<unsigned>(v[k] > threshold) << k;
+  return mask;
 #endif
 }
 
@@ -519,8 +596,8 @@ inline float bilinear(const cv::Mat& img, float x, float y) {
     const uint8_t* q = p + img.step[0];
     return (1.f - b) * ((1.f - a) * p[0] + a * p[1]) + b * ((1.f - a) * q[0] + a * q[1]);
   }
-  const int cx = std::clamp(static_cast<int>(std::lround(x)), 0, img.cols - 1);
-  const int cy = std::clamp(static_cast<int>(std::lround(y)), 0, img.rows - 1);
+  const int cx = std::clamp(static_cast<int>(roundInt(x)), 0, img.cols - 1);
+  const int cy = std::clamp(static_cast<int>(roundInt(y)), 0, img.rows - 1);
   return img.at<uint8_t>(cy, cx);
 }
 
@@ -544,10 +621,26 @@ struct CellSampler {
   /// out[i] = mean grey level of the box x box cell centred at (px[i], py[i]), i < n; `out`
   /// has room for n rounded up to a multiple of 4. `fallback(px, py)` for the samples near
   /// the border (cellMean's general path).
+  /// Not inlined into Surf::run: inlined it compiled to more instructions (register
+  /// pressure). sampleAvx2 is the same code compiled for AVX2 (bit-identical: no FMA).
   template <typename Fallback>
-  // Not inlined: inlined into Surf::run it compiled to more instructions (register pressure).
   SEAVIO_SURF_NOINLINE void sample(int n, int box, float inv_box2, const uint32_t* sum, std::ptrdiff_t stride,
                                    const cv::Mat& gray8, float* out, Fallback&& fallback) {
+    sampleImpl(n, box, inv_box2, sum, stride, gray8, out, fallback);
+  }
+#if SEAVIO_SURF_AVX2
+  template <typename Fallback>
+  __attribute__((target("avx2"))) SEAVIO_SURF_NOINLINE void sampleAvx2(int n, int box, float inv_box2,
+                                                                      const uint32_t* sum, std::ptrdiff_t stride,
+                                                                      const cv::Mat& gray8, float* out,
+                                                                      Fallback&& fallback) {
+    sampleImpl(n, box, inv_box2, sum, stride, gray8, out, fallback);
+  }
+#endif
+
+  template <typename Fallback>
+  SEAVIO_SURF_INLINE void sampleImpl(int n, int box, float inv_box2, const uint32_t* sum, std::ptrdiff_t stride,
+                                     const cv::Mat& gray8, float* out, Fallback& fallback) {
     const int width = gray8.cols, height = gray8.rows;
     const float half = static_cast<float>(box - 1) * 0.5f;
     const int x_last = width - box - 1, y_last = height - box - 1;
@@ -727,6 +820,9 @@ Surf::Surf(SurfParams params) : params_(params) {
     for (const auto& e : errors) msg += " " + e + ";";
     throw std::invalid_argument(msg);
   }
+#if SEAVIO_SURF_AVX2
+  use_avx2_ = params_.avx2 && __builtin_cpu_supports("avx2");
+#endif
   for (int v = -kOriRadius; v <= kOriRadius; ++v) {
     for (int u = -kOriRadius; u <= kOriRadius; ++u) {
       if (u * u + v * v > kOriRadius * kOriRadius) continue;
@@ -778,6 +874,19 @@ void Surf::detect(const cv::Mat& gray8, double hessian_threshold, std::vector<cv
 
 void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
                cv::Mat* descriptors, SurfWorkspace& workspace) const {
+#if SEAVIO_SURF_AVX2
+  if (use_avx2_) {
+    runAvx2(gray8, hessian_threshold, keypoints, descriptors, workspace);
+    return;
+  }
+#endif
+  runBaseline(gray8, hessian_threshold, keypoints, descriptors, workspace);
+}
+
+template <bool kAvx2>
+SEAVIO_SURF_INLINE void Surf::runWith(const cv::Mat& gray8, double hessian_threshold,
+                                      std::vector<cv::KeyPoint>& keypoints, cv::Mat* descriptors,
+                                      SurfWorkspace& workspace) const {
   keypoints.clear();
   // One allocation up front instead of a dozen regrowths (a caller reusing its vector pays none).
   keypoints.reserve(1024);
@@ -836,7 +945,7 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
       validRange(filters[layer].size, step, height, i0, i1);
       validRange(filters[layer].size, step, width, j0, j1);
       float* det = layers.get() + plane * (layer - 1);
-      hessianLayer(filters[layer], sum, stride, step, i0, i1, j0, j1, det, cols, row_scratch);
+      hessianLayer(filters[layer], sum, stride, step, i0, i1, j0, j1, det, cols, row_scratch, kAvx2);
     }
 
     for (int layer = 1; layer <= n_full; ++layer) {
@@ -854,11 +963,18 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
         const float* row = here + static_cast<std::size_t>(i) * cols;
         for (int jb = j0 + 1; jb <= j1 - 1; jb += kScanBlock) {
           const int je = std::min(jb + kScanBlock, j1);  // exclusive
-          // Nearly every response is below the threshold: one vectorised test per block.
-          if (je - jb == kScanBlock && !anyAbove(row + jb, threshold)) continue;
-          for (int j = jb; j < je; ++j) {
+          // Most responses are below the threshold: one vectorised test per block, then only
+          // the columns above it, in order (the same candidates as testing each column).
+          unsigned above = 0;
+          if (je - jb == kScanBlock) {
+            above = aboveMask(row + jb, threshold);
+          } else {
+            for (int j = jb; j < je; ++j) above |= static_cast<unsigned>(row[j] > threshold) << (j - jb);
+          }
+          while (above != 0) {
+            const int j = jb + __builtin_ctz(above);
+            above &= above - 1;
             const float v = row[j];
-            if (!(v > threshold)) continue;
             // Cheapest first: the 8 neighbours in this layer (rows above and below in memory).
             const float* up = row - cols;
             const float* dn = row + cols;
@@ -924,6 +1040,13 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
   alignas(16) std::array<float, kOriMax> gx{}, gy{}, ang{};
   std::array<float, 360 + kOriWindowDeg> bin_x{}, bin_y{};
   alignas(16) std::array<float, CellSampler::kPad> patch{};
+  // Orientation: the (2 kG + 1)^2 grid of cell means around a keypoint, zeros where never
+  // sampled (read only by lanes whose results are dropped), and its sampled cells in order.
+  constexpr int kG = kOriGrid;
+  constexpr int kGW = 2 * kG + 1;
+  alignas(16) std::array<float, (kGW * kGW + 3) / 4 * 4> grid{};
+  alignas(16) std::array<float, (kOriGridCells + 3) / 4 * 4> cells{};
+  static_assert(kOriGridCells <= CellSampler::kMax, "the sampled cells fit the sampler");
   std::array<float, kPatch * kPatch> pdx{}, pdy{};
   // Mean grey level of the box x box cell centred at (px, py) [px]: the integral image at the
   // sub-pixel centre (bilinear blend of the four integer placements); plain bilinear for box 1.
@@ -937,13 +1060,22 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
     }
     if (box <= width && box <= height) {
       // Near the border: the box shifted inside the image (replicates the edge).
-      const int cx = std::clamp(static_cast<int>(std::lround(fx)), 0, width - box);
-      const int cy = std::clamp(static_cast<int>(std::lround(fy)), 0, height - box);
+      const int cx = std::clamp(static_cast<int>(roundInt(fx)), 0, width - box);
+      const int cy = std::clamp(static_cast<int>(roundInt(fy)), 0, height - box);
       return static_cast<float>(integral.boxSum(cx, cy, cx + box, cy + box)) * inv_box2;
     }
     return bilinear(gray8, px, py);
   };
   CellSampler sampler;
+  const auto sampleCells = [&](int n, int box, float inv_box2, float* out, auto&& fallback) {
+#if SEAVIO_SURF_AVX2
+    if constexpr (kAvx2) {
+      sampler.sampleAvx2(n, box, inv_box2, sum, stride, gray8, out, fallback);
+      return;
+    }
+#endif
+    sampler.sample(n, box, inv_box2, sum, stride, gray8, out, fallback);
+  };
   std::size_t kept = 0;
   for (std::size_t k = 0; k < keypoints.size(); ++k) {
     cv::KeyPoint kp = keypoints[k];
@@ -956,19 +1088,26 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
       // sub-pixel positions, differentiated with a Scharr kernel on cells two apart (derivative
       // scale ~2 s like the wavelet, nearly isotropic): median orientation error on a 30 deg
       // rotation 1.75 deg instead of 5.6.
-      constexpr int kG = kOriRadius + 2;
-      constexpr int kGW = 2 * kG + 1;
-      alignas(16) std::array<float, (kGW * kGW + 3) / 4 * 4> grid;
+      // Only the cells the stencil reads are sampled (kOriGridRows: 225 of 289), into `cells`
+      // in row order, then placed in the grid; the unread corners keep their initial zeros.
       const int obox = std::max(1, static_cast<int>(std::lround(3.f * s)));  // smoothing box [px]
       const float inv_obox2 = 1.f / static_cast<float>(obox * obox);
+      int m = 0;
       for (int v = -kG; v <= kG; ++v) {
-        for (int u = -kG; u <= kG; ++u) {
-          sampler.px[(v + kG) * kGW + (u + kG)] = kp.pt.x + u * s;
-          sampler.py[(v + kG) * kGW + (u + kG)] = kp.pt.y + v * s;
+        const int u0 = kOriGridRows[v + kG][0], count = kOriGridRows[v + kG][1];
+        for (int u = u0; u < u0 + count; ++u, ++m) {
+          sampler.px[m] = kp.pt.x + u * s;
+          sampler.py[m] = kp.pt.y + v * s;
         }
       }
-      sampler.sample(kGW * kGW, obox, inv_obox2, sum, stride, gray8, grid.data(),
-                     [&](float x, float y) { return cellMean(x, y, obox, inv_obox2); });
+      sampleCells(m, obox, inv_obox2, cells.data(),
+                  [&](float x, float y) { return cellMean(x, y, obox, inv_obox2); });
+      m = 0;
+      for (int v = -kG; v <= kG; ++v) {
+        const int u0 = kOriGridRows[v + kG][0], count = kOriGridRows[v + kG][1];
+        std::copy(cells.data() + m, cells.data() + m + count, grid.data() + (v + kG) * kGW + (u0 + kG));
+        m += count;
+      }
       std::size_t n = 0;
 #if defined(__SSE2__)
       // Four samples of a disc row at once (same operations per lane as the scalar loop below;
@@ -1080,7 +1219,7 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
           sampler.py[r * (kPatch + 1) + c] = kp.pt.y + du * sn + dv * cs;
         }
       }
-      sampler.sample((kPatch + 1) * (kPatch + 1), box, inv_box2, sum, stride, gray8, patch.data(),
+      sampleCells((kPatch + 1) * (kPatch + 1), box, inv_box2, patch.data(),
                      [&](float x, float y) { return cellMean(x, y, box, inv_box2); });
       float* vec = descriptors->ptr<float>(static_cast<int>(kept));
 #if defined(__SSE2__)
@@ -1159,5 +1298,24 @@ void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::K
   keypoints.resize(kept);
   if (descriptors != nullptr) descriptors->resize(kept);  // in place: rows 0..kept-1 are the kept ones
 }
+
+SEAVIO_SURF_NOINLINE void Surf::runBaseline(const cv::Mat& gray8, double hessian_threshold,
+                                            std::vector<cv::KeyPoint>& keypoints, cv::Mat* descriptors,
+                                            SurfWorkspace& workspace) const {
+  runWith<false>(gray8, hessian_threshold, keypoints, descriptors, workspace);
+}
+
+#if SEAVIO_SURF_AVX2
+/// The whole call compiled for AVX2: box filters eight responses per step, the rest of the
+/// vectorised and SSE2 code in three-operand VEX form (fewer register copies). No FMA, so
+/// every float operation is the baseline's: bit-identical output.
+__attribute__((target("avx2"))) SEAVIO_SURF_NOINLINE void Surf::runAvx2(const cv::Mat& gray8,
+                                                                        double hessian_threshold,
+                                                                        std::vector<cv::KeyPoint>& keypoints,
+                                                                        cv::Mat* descriptors,
+                                                                        SurfWorkspace& workspace) const {
+  runWith<true>(gray8, hessian_threshold, keypoints, descriptors, workspace);
+}
+#endif
 
 }  // namespace seavio::features

@@ -24,6 +24,8 @@ struct SurfParams {
   bool extended = false;           ///< 128-element descriptor instead of 64
   bool upright = false;            ///< U-SURF: no orientation, descriptor in image axes
   int max_features = 0;            ///< 0 = no cap; else keep the strongest by det(H)
+  bool avx2 = true;                ///< AVX2 box-filter kernels where the CPU has them
+                                   ///< (bit-identical output; false keeps the SSE2 path)
 };
 
 /// Every problem with `p`, one message per bad key ("surf.octaves must be ..."); empty if
@@ -61,6 +63,8 @@ class Surf {
   explicit Surf(SurfParams params);
 
   const SurfParams& params() const { return params_; }
+  /// True if the box filters run the AVX2 kernels (params().avx2 and the CPU has AVX2).
+  bool usesAvx2() const { return use_avx2_; }
   /// 64, or 128 when extended.
   int descriptorSize() const { return params_.extended ? 128 : 64; }
   /// Box-filter side [px] of `layer` in `octave` (Bay's sequence: 9, 15, 21, 27; 15, 27, 39,
@@ -90,8 +94,17 @@ class Surf {
  private:
   void run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
            cv::Mat* descriptors, SurfWorkspace& workspace) const;
+  /// run's body (runWith) compiled for the baseline instruction set and for AVX2 (x86-64).
+  void runBaseline(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
+                   cv::Mat* descriptors, SurfWorkspace& workspace) const;
+  void runAvx2(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
+               cv::Mat* descriptors, SurfWorkspace& workspace) const;
+  template <bool kAvx2>
+  void runWith(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
+               cv::Mat* descriptors, SurfWorkspace& workspace) const;
 
   SurfParams params_;
+  bool use_avx2_ = false;  ///< params_.avx2 and the CPU has AVX2
   /// Orientation samples: integer offsets (in units of s) inside radius 6 and their Gaussian
   /// weights (sigma 2.5 s, as OpenCV).
   std::vector<cv::Point> ori_offsets_;

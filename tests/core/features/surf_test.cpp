@@ -275,6 +275,42 @@ TEST(Surf, WorkspaceReuseAcrossSizesGivesIdenticalOutput) {
   EXPECT_TRUE(sameOutput(k1, cv::Mat(), kd, cv::Mat()));
 }
 
+TEST(Surf, Avx2KernelsGiveTheBaselineOutputBitForBit) {
+  // GIVEN the AVX2 box filters and the baseline (SSE2) ones, on widths that leave every
+  // remainder of an eight-lane loop, with the default octaves, more layers (other lobes and
+  // the generic kernel) and five octaves (step 16)
+  struct Case {
+    int width, height, octaves, layers;
+    bool extended;
+  };
+  const Case cases[] = {{640, 480, 4, 2, false}, {333, 251, 4, 2, true}, {517, 389, 3, 4, false},
+                        {401, 777, 5, 2, false}, {96, 73, 4, 3, false}};
+  for (const Case& c : cases) {
+    SurfParams p;
+    p.octaves = c.octaves;
+    p.octave_layers = c.layers;
+    p.extended = c.extended;
+    p.avx2 = false;
+    const Surf baseline(p);
+    p.avx2 = true;
+    const Surf fast(p);
+    EXPECT_FALSE(baseline.usesAvx2());
+#if defined(__x86_64__)
+    EXPECT_EQ(fast.usesAvx2(), __builtin_cpu_supports("avx2") != 0);
+#else
+    EXPECT_FALSE(fast.usesAvx2());
+#endif
+    const cv::Mat img = makeTexture(c.width, c.height, static_cast<uint32_t>(40 + c.width));
+    std::vector<cv::KeyPoint> kb, kf;
+    cv::Mat db, df;
+    baseline.detectAndCompute(img, 100, kb, db);
+    fast.detectAndCompute(img, 100, kf, df);
+    // THEN keypoints and descriptors are the same bit for bit
+    ASSERT_GT(kb.size(), 5u) << c.width << " x " << c.height;
+    EXPECT_TRUE(sameOutput(kb, db, kf, df)) << c.width << " x " << c.height;
+  }
+}
+
 TEST(Surf, ImagesBeyondTheFastSamplingRangeGiveTheSameFeatures) {
   // GIVEN a texture in the bottom-right corner of a canvas whose integral image has more than
   // 2^24 entries: the four-lane sampler forms table offsets in float, exact only below 2^24,
