@@ -72,7 +72,7 @@ std::vector<eval::TimedPose> runPnpBaseline(const drivers::Dataset& ds, std::siz
   odometry::PnpBaseline baseline(frontend, bp);
   std::vector<eval::TimedPose> out;
   for (std::size_t i = 0; i < n; ++i) {
-    const OdometryResult r = baseline.process(drivers::loadFrame(ds, i));
+    const OdometryResult r = baseline.process(drivers::loadFrame(ds, i), monotonicNowNs);
     out.push_back({r.t_ns, r.T_W_B});
     stats.add(r);
   }
@@ -111,6 +111,7 @@ int run(const RunOptions& o) {
   } else if (o.mode == "baseline") {
     trajectory = runPnpBaseline(ds, n, params, stats);
     stats.printTable(std::cout);
+    if (!o.stats.empty()) stats.writeJson(o.stats);
   } else {
     const SequenceRun seq = runSequence(ds, params, n, [&](std::size_t i, const OdometryResult& r) {
       // Issue 8's memory goal is stated per 1000 frames: sample the resident size there.
