@@ -61,6 +61,7 @@ TEST_F(Cli, SimulateRunEvalEndToEnd) {
        at = s.find("\"accel_bias_m_s2\": [", at + 1))
     ++bias_rows;
   EXPECT_EQ(bias_rows, 40u);
+  EXPECT_NE(s.find("\"position_sigma_m\": "), std::string::npos);
   EXPECT_NE(slurp(logPath()).find("IMU biases at the end: gyro ["), std::string::npos);
   // The stage table sets the paper's Table II column of the variant that ran beside ours.
   const std::string local_log = slurp(logPath());
