@@ -132,6 +132,15 @@ int run(const RunOptions& o) {
                              seq.peak_rss_mb, seq.map_bytes / 1048576.0, seq.map_bytes / 1048576.0 * per_1000,
                              seq.map_keyframes, seq.revisit_corrections);
     stats.printMemory(std::cout);
+    if (!seq.accel_bias_m_s2.empty()) {
+      // What the odometry made of the IMU's biases (a simulator's truth is in its ground truth).
+      const Eigen::Vector3d& g = seq.gyro_bias_rad_s.back();
+      const Eigen::Vector3d& a = seq.accel_bias_m_s2.back();
+      std::cout << fmt::format("IMU biases at the end: gyro [{:.3e} {:.3e} {:.3e}] rad/s, accelerometer "
+                               "[{:.4f} {:.4f} {:.4f}] m/s^2\n",
+                               g.x(), g.y(), g.z(), a.x(), a.y(), a.z());
+    }
+    stats.setImuBiases(seq.gyro_bias_rad_s, seq.accel_bias_m_s2);
     if (!o.stats.empty()) stats.writeJson(o.stats);
   }
   drivers::writeTum(o.out, trajectory);

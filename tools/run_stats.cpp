@@ -118,12 +118,22 @@ void RunStats::writeJson(const std::string& path) const {
               "\"stereo_matches\": {}, \"temporal_matches\": {}, \"ransac_inliers\": {}, \"icp_iterations\": {}, "
               "\"icp_inliers\": {}, \"icp_rms_m\": {:.6f}, \"model_points\": {}, \"detector_threshold\": {:.3f}, "
               "\"rectify_ms\": {:.3f}, \"features_ms\": {:.3f}, \"stereo_ms\": {:.3f}, \"temporal_ms\": {:.3f}, "
-              "\"tensor_ms\": {:.3f}, \"icp_ms\": {:.3f}, \"total_ms\": {:.3f}}}",
+              "\"tensor_ms\": {:.3f}, \"icp_ms\": {:.3f}, \"total_ms\": {:.3f}",
               f.t_ns, f.seq, static_cast<int>(f.source), f.quality.features_left, f.quality.features_right,
               f.quality.stereo_matches, f.quality.temporal_matches, f.quality.ransac_inliers, f.quality.icp_iterations,
               f.quality.icp_inliers, f.quality.icp_rms_m, f.quality.model_points, f.quality.detector_threshold,
               f.times.rectify_ms, f.times.features_ms, f.times.stereo_ms, f.times.temporal_ms, f.times.tensor_ms,
               f.times.icp_ms, f.times.total_ms);
+    // The position sigma the odometry claims (global mode sizes its revisit search by it).
+    os << fmt::format(", \"position_sigma_m\": {:.4f}",
+                      std::sqrt(std::max(f.covariance.bottomRightCorner<3, 3>().trace(), 0.0)));
+    if (gyro_bias_.size() == frames_.size() && accel_bias_.size() == frames_.size()) {
+      const Eigen::Vector3d& g = gyro_bias_[i];
+      const Eigen::Vector3d& a = accel_bias_[i];
+      os << fmt::format(", \"gyro_bias_rad_s\": [{:.4e}, {:.4e}, {:.4e}], \"accel_bias_m_s2\": [{:.5f}, {:.5f}, {:.5f}]",
+                        g.x(), g.y(), g.z(), a.x(), a.y(), a.z());
+    }
+    os << "}";
   }
   os << "\n  ]\n}\n";
 }

@@ -2,6 +2,7 @@
 /// Per-frame figures of a `seavio run`, summarised as the paper's Table II.
 #include <ostream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/common/types.hpp"
@@ -25,6 +26,12 @@ class RunStats {
   /// Records the resident size after `frames` frames.
   void addMemorySample(std::size_t frames, double rss_mb) { memory_.push_back({frames, rss_mb}); }
   const std::vector<MemorySample>& memorySamples() const { return memory_; }
+  /// Per-frame IMU biases the odometry held (SequenceRun); written beside each frame in the
+  /// JSON when there is one per frame.
+  void setImuBiases(std::vector<Eigen::Vector3d> gyro_rad_s, std::vector<Eigen::Vector3d> accel_m_s2) {
+    gyro_bias_ = std::move(gyro_rad_s);
+    accel_bias_ = std::move(accel_m_s2);
+  }
   /// "RSS after 1000 frames ... MiB; growth ..." line(s); nothing without samples.
   void printMemory(std::ostream& os) const;
   /// Which of the paper's Table II columns to print beside ours.
@@ -39,6 +46,7 @@ class RunStats {
  private:
   std::vector<OdometryResult> frames_;
   std::vector<MemorySample> memory_;
+  std::vector<Eigen::Vector3d> gyro_bias_, accel_bias_;
 };
 
 }  // namespace seavio::tools

@@ -41,6 +41,8 @@ SequenceRun runSequence(const drivers::Dataset& ds, const odometry::OdometryPara
   out.results.reserve(n);
   out.frame_wall_ms.reserve(n);
   out.frame_cpu_ms.reserve(n);
+  out.gyro_bias_rad_s.reserve(n);
+  out.accel_bias_m_s2.reserve(n);
   std::size_t imu_cursor = 0;
   for (std::size_t i = 0; i < n; ++i) {
     const StereoFrame frame = drivers::loadFrame(ds, i);
@@ -53,6 +55,8 @@ SequenceRun runSequence(const drivers::Dataset& ds, const odometry::OdometryPara
     out.frame_cpu_ms.push_back(static_cast<double>(threadCpuNowNs() - cpu0) * 1e-6);
     out.frame_wall_ms.push_back(static_cast<double>(monotonicNowNs() - wall0) * 1e-6);
     out.trajectory.push_back({r.t_ns, r.T_W_B});
+    out.gyro_bias_rad_s.push_back(odo.state().gyro_bias_rad_s);
+    out.accel_bias_m_s2.push_back(odo.state().accel_bias_m_s2);
     if (on_frame) on_frame(i, r);
     out.results.push_back(std::move(r));
   }

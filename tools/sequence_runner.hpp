@@ -27,6 +27,9 @@ struct SequenceRun {
   /// Per frame, around the processing call: wall time and the calling thread's CPU time
   /// (CLOCK_THREAD_CPUTIME_ID; the whole frame's CPU with feature_threads 1) [ms].
   std::vector<double> frame_wall_ms, frame_cpu_ms;
+  /// Per frame, the IMU biases the odometry holds after it (gyro: still start and vision;
+  /// accelerometer: odometry.accel_bias), to compare with a simulator's true biases.
+  std::vector<Eigen::Vector3d> gyro_bias_rad_s, accel_bias_m_s2;
 };
 
 /// Monotonic wall clock [ns] (std::chrono::steady_clock), the clock the stage times use.

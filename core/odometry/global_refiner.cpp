@@ -164,21 +164,42 @@ bool GlobalRefiner::correctFromRevisit(const matching::StereoFeatures& current,
     wide = map_.selectWithin(T_W_R0.translation(), radius);
     pool = &wide;
   }
-  int tried = 0;
-  for (const map::MapFrame* f : *pool) {  // nearest first
-    if (tried >= std::max(params_.revisit_candidates, 1)) break;
+  // Old keyframes with descriptors, nearest first.
+  std::vector<const RevisitFrame*> old;
+  const std::size_t try_n = static_cast<std::size_t>(std::max(params_.revisit_candidates, 1));
+  const bool disc = pool == &wide && params_.revisit_disc_candidates > 0;
+  const std::size_t look_n = disc ? std::max(try_n, static_cast<std::size_t>(params_.revisit_disc_candidates)) : try_n;
+  for (const map::MapFrame* f : *pool) {
+    if (old.size() >= look_n) break;
     if (t_ns - f->t_ns < revisit_ns) continue;
     const auto it = revisit_frames_.find(f->id);
-    if (it == revisit_frames_.end()) continue;
-    ++tried;
-    if (reobserve(it->second, current, pose_covariance, rng, T_W_R0, out)) return true;
+    if (it != revisit_frames_.end()) old.push_back(&it->second);
+  }
+  std::vector<std::vector<matching::TemporalMatch>> matches(old.size());
+  std::vector<std::size_t> order(old.size());
+  for (std::size_t i = 0; i < old.size(); ++i) order[i] = i;
+  const bool ranked = disc && old.size() > try_n;
+  if (ranked) {
+    // The drift disc holds more old keyframes than are verified: the nearest to a prediction
+    // that is metres off need not overlap the ground under the vehicle at all (full paper
+    // survey: 12 m at the first revisit). Rank them by how many descriptors they share with
+    // this frame; RANSAC then verifies the best few as before.
+    for (std::size_t i = 0; i < old.size(); ++i) matches[i] = matchRevisit(*old[i], current, pose_covariance, T_W_R0);
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return matches[a].size() > matches[b].size(); });
+    order.resize(try_n);
+  }
+  for (std::size_t i : order) {
+    if (!ranked) matches[i] = matchRevisit(*old[i], current, pose_covariance, T_W_R0);
+    if (reobserve(*old[i], current, matches[i], pose_covariance, rng, T_W_R0, out)) return true;
   }
   return false;
 }
 
-bool GlobalRefiner::reobserve(const RevisitFrame& old, const matching::StereoFeatures& current,
-                              const Matrix6d& pose_covariance, std::mt19937& rng, Eigen::Isometry3d& T_W_R0,
-                              GlobalCorrection& out) {
+std::vector<matching::TemporalMatch> GlobalRefiner::matchRevisit(const RevisitFrame& old,
+                                                                 const matching::StereoFeatures& current,
+                                                                 const Matrix6d& pose_covariance,
+                                                                 const Eigen::Isometry3d& T_W_R0) const {
   matching::StereoFeatures old_features;
   old_features.points = old.features.points;
   old_features.laplacian_sign = old.features.laplacian_sign;
@@ -187,9 +208,9 @@ bool GlobalRefiner::reobserve(const RevisitFrame& old, const matching::StereoFea
   } else if (old.features.descriptors.type() == current.descriptors.type()) {
     old_features.descriptors = old.features.descriptors;
   } else {
-    return false;
+    return {};
   }
-  if (old_features.points.empty()) return false;
+  if (old_features.points.empty()) return {};
   // The drift accumulated since the old frame sizes the search: the shared part of the two
   // poses' uncertainty cancels in their relative pose.
   const double drift_var = std::max(pose_covariance.bottomRightCorner<3, 3>().trace() - old.position_variance_m2, 1e-4);
@@ -206,12 +227,19 @@ bool GlobalRefiner::reobserve(const RevisitFrame& old, const matching::StereoFea
   const double sigma_px = rig_.f_px * (std::sqrt(cov.topLeftCorner<3, 3>().trace()) + std::sqrt(drift_var) / mean_depth);
   if (match_params.sigma_multiplier * sigma_px + match_params.min_window_px > match_params.max_window_px)
     match_params.use_prediction = false;
-  const auto matches = matching::matchTemporal(old_features, current, rig_, guess, cov, match_params);
+  return matching::matchTemporal(old_features, current, rig_, guess, cov, match_params);
+}
+
+bool GlobalRefiner::reobserve(const RevisitFrame& old, const matching::StereoFeatures& current,
+                              const std::vector<matching::TemporalMatch>& matches, const Matrix6d& pose_covariance,
+                              std::mt19937& rng, Eigen::Isometry3d& T_W_R0, GlobalCorrection& out) {
   if (static_cast<int>(matches.size()) < params_.revisit_min_inliers) return false;
+  const double drift_var = std::max(pose_covariance.bottomRightCorner<3, 3>().trace() - old.position_variance_m2, 1e-4);
+  const Eigen::Isometry3d guess = old.T_W_R0.inverse() * T_W_R0;
   std::vector<geometry::QuadMatch> quads;
   quads.reserve(matches.size());
   for (const auto& m : matches) {
-    const auto& a = old_features.points[static_cast<std::size_t>(m.prev)];
+    const auto& a = old.features.points[static_cast<std::size_t>(m.prev)];
     const auto& b = current.points[static_cast<std::size_t>(m.curr)];
     quads.push_back(geometry::QuadMatch{a.uv_left, a.uv_right, b.uv_left, b.uv_right});
   }

@@ -44,6 +44,10 @@ struct GlobalRefinerParams {
   double revisit_search_sigmas = 3.0;
   double max_revisit_search_m = 25.0;      ///< cap on that radius and on the correction [m]
   int revisit_candidates = 3;              ///< old keyframes tried per frame, nearest first
+  /// When the drift disc is wider than the selection radius, up to this many old keyframes in
+  /// it (nearest first) are ranked by descriptor matches and the best revisit_candidates of
+  /// them verified; 0: the nearest revisit_candidates only.
+  int revisit_disc_candidates = 12;
 };
 
 /// One frame handed to the global step, after the local odometry has estimated it.
@@ -158,9 +162,14 @@ class GlobalRefiner {
   bool correctFromRevisit(const matching::StereoFeatures& current, const std::vector<const map::MapFrame*>& selected,
                           int64_t t_ns, const Eigen::Matrix<double, 6, 6>& pose_covariance, std::mt19937& rng,
                           Eigen::Isometry3d& T_W_R0, GlobalCorrection& out);
-  /// Re-observation of one old keyframe: matching (pruned by the drift, or over the whole
-  /// image when the drift is wider than the matcher's window), RANSAC, blend. True if applied.
+  /// Descriptor matches of one old keyframe against the current frame, pruned by the drift, or
+  /// over the whole image when the drift is wider than the matcher's window.
+  std::vector<matching::TemporalMatch> matchRevisit(const RevisitFrame& old, const matching::StereoFeatures& current,
+                                                    const Eigen::Matrix<double, 6, 6>& pose_covariance,
+                                                    const Eigen::Isometry3d& T_W_R0) const;
+  /// Re-observation of one old keyframe from its matches: RANSAC, gate, blend. True if applied.
   bool reobserve(const RevisitFrame& old, const matching::StereoFeatures& current,
+                 const std::vector<matching::TemporalMatch>& matches,
                  const Eigen::Matrix<double, 6, 6>& pose_covariance, std::mt19937& rng, Eigen::Isometry3d& T_W_R0,
                  GlobalCorrection& out);
 

@@ -74,6 +74,7 @@ GlobalRefinerParams globalRefinerParams(const OdometryParams& p) {
   g.revisit_search_sigmas = p.revisit_search_sigmas;
   g.max_revisit_search_m = p.max_revisit_search_m;
   g.revisit_candidates = p.revisit_candidates;
+  g.revisit_disc_candidates = p.revisit_disc_candidates;
   return g;
 }
 

@@ -161,6 +161,9 @@ struct OdometryParams {
   double revisit_search_sigmas = 3.0;
   double max_revisit_search_m = 25.0;        ///< ...capped at this radius and correction [m]
   int revisit_candidates = 3;                ///< old keyframes tried per frame, nearest first
+  /// Drift disc wider than the map's selection radius: this many old keyframes in it (nearest
+  /// first) are ranked by descriptor matches, the best revisit_candidates verified; 0 = off.
+  int revisit_disc_candidates = 12;
   uint32_t seed = 1;                         ///< RANSAC random stream
   GlobalDelivery global_delivery = GlobalDelivery::kInline;
   /// Deferred global step through this link: track() first applies every correction the

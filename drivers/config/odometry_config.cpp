@@ -232,6 +232,7 @@ void visit(V& v, odometry::OdometryParams& p) {
   v.value("revisit_search_sigmas", p.revisit_search_sigmas, 0, 100);
   v.value("max_revisit_search_m", p.max_revisit_search_m, 0, 1000);
   v.value("revisit_candidates", p.revisit_candidates, 1, 100);
+  v.value("revisit_disc_candidates", p.revisit_disc_candidates, 0, 1000);
   v.value("seed", p.seed, 0, 4294967295.0);
   v.flag("use_rotation_prior", p.use_rotation_prior);
   v.section("refinement", [&] {

@@ -159,6 +159,96 @@ TEST(GlobalRefiner, IcpPullsADriftedFrameBackWithinTheGateAndRefusesLargerJumps)
   EXPECT_TRUE(large.correction_W.isApprox(Eigen::Isometry3d::Identity(), 1e-9));
 }
 
+/// A leg along x over a long floor, one frame per metre, stored as keyframes at the true
+/// poses; then a frame over metre `true_x` of it whose odometry says `estimated_x`, with a
+/// position sigma of `sigma_m` per axis, as after kilometres of drift (issue 5).
+GlobalCorrection revisitAfterLargeDrift(int disc_candidates, double true_x, double estimated_x, double sigma_m) {
+  camera::StereoRectifier rect = makeRectifier();
+  const camera::RectifiedRig rig = rect.rig();
+  std::mt19937 rng(5);
+  const test::SyntheticFloor floor = test::randomFloor(rng, 6000, -3.0, 40.0, 3.0, -4.0);
+  std::normal_distribution<double> pix(0.0, 0.1);
+  OdometryParams p = globalParams();
+  p.revisit_disc_candidates = disc_candidates;
+  GlobalRefiner refiner(rig, globalRefinerParams(p));
+  const auto bodyAt = [](double x) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation() = Eigen::Vector3d(x, 0, 0);
+    return T;
+  };
+  for (int i = 0; i <= 36; ++i) {
+    const FrameFeatures f =
+        test::floorFrame(rig, floor.points_W, floor.descriptors, bodyAt(i), static_cast<uint64_t>(i),
+                         static_cast<int64_t>(i) * 1'000'000'000, pix, rng);
+    std::vector<Eigen::Vector3f> cloud;
+    for (const auto& sp : f.stereo.points) cloud.push_back(sp.p_R0);
+    refiner.insertKeyframe(static_cast<uint64_t>(i), static_cast<int64_t>(i) * 1'000'000'000,
+                           bodyAt(i) * rig.T_B_R0, std::move(cloud), f.stereo, 3e-4, i == 0);
+  }
+  const FrameFeatures now = test::floorFrame(rig, floor.points_W, floor.descriptors, bodyAt(true_x), 100, 100'000'000'000,
+                                             pix, rng);
+  std::vector<Eigen::Vector3f> cloud;
+  for (const auto& sp : now.stereo.points) cloud.push_back(sp.p_R0);
+  Eigen::Matrix<double, 6, 6> cov = Eigen::Matrix<double, 6, 6>::Identity() * 1e-6;
+  cov.bottomRightCorner<3, 3>() = Eigen::Matrix3d::Identity() * sigma_m * sigma_m;
+  return refiner.correct(now.stereo, cloud, 100, 100'000'000'000, bodyAt(estimated_x) * rig.T_B_R0, cov, rng);
+}
+
+TEST(GlobalRevisitDisc, OldGroundMetresFromThePredictionIsFoundAmongTheKeyframesOfTheDriftDisc) {
+  // GIVEN a frame over x = 12 m of an old leg whose odometry has drifted 8 m ahead (x = 20 m),
+  // with a 4 m position sigma: the three old keyframes nearest the prediction (20, 18 and
+  // 22 m) do not overlap the ground under the vehicle (4.7 m footprint)
+  const double true_x = 12.0, estimated_x = 20.0, sigma_m = 4.0;
+  const Eigen::Vector3d truth = (Eigen::Isometry3d(Eigen::Translation3d(true_x, 0, 0)) *
+                                 makeRectifier().rig().T_B_R0).translation();
+  // WHEN only the nearest are tried (the earlier search)
+  const GlobalCorrection nearest = revisitAfterLargeDrift(0, true_x, estimated_x, sigma_m);
+  // THEN nothing is re-observed and the frame stays 8 m off
+  EXPECT_FALSE(nearest.revisit_used);
+  EXPECT_GT((nearest.T_W_R0.translation() - truth).norm(), 7.9);
+  // WHEN the keyframes of the drift disc are ranked by descriptor matches first
+  const GlobalCorrection ranked = revisitAfterLargeDrift(12, true_x, estimated_x, sigma_m);
+  // THEN the old keyframe over the true ground is verified and pulls the frame back onto it
+  ASSERT_TRUE(ranked.revisit_used);
+  EXPECT_LT((ranked.T_W_R0.translation() - truth).norm(), 0.1);
+  EXPECT_LT(ranked.covariance_scale, 0.01);
+}
+
+TEST(GlobalRevisitDisc, AFrameOverGroundNeverMappedIsNotPulledOntoTheKeyframesOfTheDisc) {
+  // GIVEN the same old leg and a frame over ground the map never saw (other points, other
+  // descriptors), which the odometry places on the leg with the same large uncertainty
+  camera::StereoRectifier rect = makeRectifier();
+  const camera::RectifiedRig rig = rect.rig();
+  std::mt19937 rng(5);
+  const test::SyntheticFloor leg = test::randomFloor(rng, 6000, -3.0, 40.0, 3.0, -4.0);
+  const test::SyntheticFloor beside = test::randomFloor(rng, 600, 9.0, 15.0, 3.0, -4.0);
+  std::normal_distribution<double> pix(0.0, 0.1);
+  GlobalRefiner refiner(rig, globalRefinerParams(globalParams()));
+  for (int i = 0; i <= 36; ++i) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation() = Eigen::Vector3d(i, 0, 0);
+    const FrameFeatures f = test::floorFrame(rig, leg.points_W, leg.descriptors, T, static_cast<uint64_t>(i),
+                                             static_cast<int64_t>(i) * 1'000'000'000, pix, rng);
+    refiner.insertKeyframe(static_cast<uint64_t>(i), static_cast<int64_t>(i) * 1'000'000'000, T * rig.T_B_R0, {},
+                           f.stereo, 3e-4, i == 0);
+  }
+  Eigen::Isometry3d T_true = Eigen::Isometry3d::Identity();
+  T_true.translation() = Eigen::Vector3d(12.0, 0, 0);
+  const FrameFeatures now =
+      test::floorFrame(rig, beside.points_W, beside.descriptors, T_true, 100, 100'000'000'000, pix, rng);
+  ASSERT_GT(now.stereo.points.size(), 100u);
+  Eigen::Isometry3d T_est = T_true;
+  T_est.translation().x() = 20.0;
+  Eigen::Matrix<double, 6, 6> cov = Eigen::Matrix<double, 6, 6>::Identity() * 1e-6;
+  cov.bottomRightCorner<3, 3>() = Eigen::Matrix3d::Identity() * 16.0;
+  // WHEN the drift disc is searched
+  const GlobalCorrection c =
+      refiner.correct(now.stereo, {}, 100, 100'000'000'000, T_est * rig.T_B_R0, cov, rng);
+  // THEN no keyframe passes the verification and the frame is left where the odometry put it
+  EXPECT_FALSE(c.revisit_used);
+  EXPECT_TRUE(c.T_W_R0.isApprox(T_est * rig.T_B_R0, 1e-12));
+}
+
 struct SurveyRun {
   std::vector<Eigen::Vector3d> est, truth;
   int changed = 0;

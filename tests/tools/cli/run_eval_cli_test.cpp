@@ -55,6 +55,14 @@ TEST_F(Cli, SimulateRunEvalEndToEnd) {
   const std::string s = slurp(stats);
   EXPECT_NE(s.find("\"tensor_ms\""), std::string::npos);
   EXPECT_NE(s.find("\"features_left\""), std::string::npos);
+  // ...and the IMU biases the odometry held, one set per frame, the last also in the log.
+  std::size_t bias_rows = 0;
+  for (std::size_t at = s.find("\"accel_bias_m_s2\": ["); at != std::string::npos;
+       at = s.find("\"accel_bias_m_s2\": [", at + 1))
+    ++bias_rows;
+  EXPECT_EQ(bias_rows, 40u);
+  EXPECT_NE(s.find("\"position_sigma_m\": "), std::string::npos);
+  EXPECT_NE(slurp(logPath()).find("IMU biases at the end: gyro ["), std::string::npos);
   // The stage table sets the paper's Table II column of the variant that ran beside ours.
   const std::string local_log = slurp(logPath());
   EXPECT_NE(local_log.find("paper Table II, local"), std::string::npos) << local_log;
