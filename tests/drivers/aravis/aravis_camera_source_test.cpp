@@ -19,6 +19,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstring>
 #include <thread>
 
@@ -136,6 +137,7 @@ TEST(AravisCameraSource, PairsStereoFramesFromTwoFakeGigECameras) {
   StereoFrame f;
   while (got.size() < 10 && src.read(f, std::chrono::milliseconds(3000)) == ReadStatus::kOk) got.push_back(f);
   ASSERT_EQ(got.size(), 10u);
+  std::vector<double> step_errors_ns;
   for (size_t i = 0; i < got.size(); ++i) {
     ASSERT_EQ(got[i].left.size(), cv::Size(kW, kH));
     ASSERT_EQ(got[i].right.size(), cv::Size(kW, kH));
@@ -146,14 +148,19 @@ TEST(AravisCameraSource, PairsStereoFramesFromTwoFakeGigECameras) {
     if (i > 0) {
       EXPECT_GT(got[i].t_ns, got[i - 1].t_ns);
     }
-    // Pair times follow the served frames' own grid (their index), within the fake's
-    // wake-up jitter under load.
+    // Pair times follow the served frames' own grid (their index). The fake stamps a frame
+    // when its thread wakes, so one stamp can be late by the scheduler's delay (17 ms seen
+    // at load 2-25): every step must be within half a period of its grid step (a pair one
+    // frame off would be a whole period out), and the typical step within 5 ms.
     if (i > 0) {
       const double dt = static_cast<double>(got[i].t_ns - got[i - 1].t_ns);
       const double di = static_cast<double>(checkView(got[i].left, false) - checkView(got[i - 1].left, false));
-      EXPECT_NEAR(dt, di * kPeriodNs, 10e6) << i;
+      EXPECT_NEAR(dt, di * kPeriodNs, 0.5 * kPeriodNs) << i;
+      step_errors_ns.push_back(std::abs(dt - di * kPeriodNs));
     }
   }
+  std::nth_element(step_errors_ns.begin(), step_errors_ns.begin() + step_errors_ns.size() / 2, step_errors_ns.end());
+  EXPECT_LT(step_errors_ns[step_errors_ns.size() / 2], 5e6);
   EXPECT_LT(std::abs(got.back().t_ns - monotonicNowNs()), 1'000'000'000);
   src.stop();
 }
