@@ -20,10 +20,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-double median(std::vector<double> v) {
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
+using testing_support::median;
 
 TEST(LocalDisparity, StereoDisparityHasNoBiasAgainstGroundTruth) {
   // GIVEN the cruise frames of the seed whose trajectory came out 0.35 % short, through the

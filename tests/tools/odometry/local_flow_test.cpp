@@ -30,10 +30,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-double median(std::vector<double> v) {
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
+using testing_support::median;
 
 struct FlowStats {
   double flow_rel = 0;   ///< median along-flow error of the inliers' image motion / true motion

@@ -1,6 +1,8 @@
 #pragma once
 // Inter-frame matching on rendered frames with ground truth (issue 4, "the IMU prediction
 // measurably helps"): shared by the pruning test and tests/bench/pruning_bench.cpp.
+#include <algorithm>
+#include <cstddef>
 #include <cstdlib>
 #include <filesystem>
 #include <stdexcept>
@@ -99,6 +101,12 @@ inline simulate::SimConfig cruiseConfig(uint32_t seed, int frames) {
   c.trajectory.still_s = 0.5;
   c.trajectory.accel_s = 1.0;
   return c;
+}
+
+/// Median of a copy (the upper one for an even count).
+inline double median(std::vector<double> v) {
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
 }
 
 }  // namespace seavio::testing_support
