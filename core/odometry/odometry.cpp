@@ -295,8 +295,18 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     ref_gyro_cov = keyframe_->gyro_covariance;
     dt_ref_s = 1e-9 * static_cast<double>(frame.t_ns - keyframe_->t_ns);
   }
+  // The windows are centred on the prediction moved by its systematic miss, measured at the
+  // last visual fix (prediction_innovation.hpp: the 1 Hz survey's gravity leak).
+  const Eigen::Vector3d match_offset_W =
+      have_imu ? prediction_innovation_.offset(dt_s, std::sqrt(std::max(0.0, pred_cov.bottomRightCorner<3, 3>().trace())))
+               : Eigen::Vector3d::Zero();
+  const auto windowCentre = [&] {
+    Eigen::Isometry3d T = T_ref_curr_pred;
+    T.translation() += T_W_ref.rotation().transpose() * match_offset_W;
+    return T;
+  };
   std::vector<matching::TemporalMatch>& temporal = work_.temporal;
-  matching::matchTemporal(*ref_features, frame.stereo, rig, T_ref_curr_pred, pred_cov, params_.temporal,
+  matching::matchTemporal(*ref_features, frame.stereo, rig, windowCentre(), pred_cov, params_.temporal,
                           work_.temporal_ws, temporal);
   r.times.temporal_ms = timer.lap_ms();
 
@@ -326,7 +336,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     R_ref_curr_gyro = T_prev_curr_pred.rotation();
     ref_gyro_cov.setZero();
     dt_ref_s = dt_s;
-    matching::matchTemporal(*ref_features, frame.stereo, rig, T_ref_curr_pred, pred_cov, params_.temporal,
+    matching::matchTemporal(*ref_features, frame.stereo, rig, windowCentre(), pred_cov, params_.temporal,
                             work_.temporal_ws, temporal);
     r.times.temporal_ms += timer.lap_ms();
     toQuads();
@@ -503,6 +513,10 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
         shrinkCovariance(keyframe_->pose_covariance, inline_revisit->covariance_scale,
                          inline_revisit->added_position_variance_m2);
     }
+    if (have_imu)
+      prediction_innovation_.observe(T_W_B.translation() - map_shift_W - pred.state.T_W_B.translation(), dt_s);
+    else
+      prediction_innovation_.reset();
     coasting_.stop();
     r.source = PoseSource::kVision;
   } else {
@@ -560,6 +574,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     T_W_R0 = T_W_B * T_B_R0;
     r.source = PoseSource::kImuOnly;
     handover_.reset();
+    prediction_innovation_.coast();
   }
   // While the vehicle still holds still after start-up, every interval refines the gyro bias.
   if (still_start_ && have_imu) {
@@ -585,6 +600,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     T_W_R0 = prev.T_W_R0;
     r.source = PoseSource::kImuOnly;
     handover_.reset();
+    prediction_innovation_.reset();
   }
   last_motion_ = prev.T_W_R0.inverse() * T_W_R0;
   last_dt_s_ = dt_s;

@@ -22,6 +22,7 @@
 #include "core/odometry/frontend.hpp"
 #include "core/odometry/global_refiner.hpp"
 #include "core/odometry/motion_refinement.hpp"
+#include "core/odometry/prediction_innovation.hpp"
 
 namespace seavio::odometry {
 
@@ -253,6 +254,8 @@ class Odometry {
   Eigen::Matrix<double, 6, 6> coast_start_pose_covariance_ = Eigen::Matrix<double, 6, 6>::Zero();
   /// The visual fixes since vision last returned, for the velocity coasting starts from.
   imu::CoastingHandover handover_;
+  /// The IMU prediction's systematic miss, for centring the inter-frame search windows.
+  PredictionInnovation prediction_innovation_;
   /// Accelerometer bias and tilt (accel_bias_estimation).
   imu::AccelBiasEstimator accel_bias_;
   std::optional<PreviousFrame> previous_;
