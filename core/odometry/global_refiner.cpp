@@ -12,6 +12,13 @@ namespace {
 
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
+/// Position variance accumulated since `old` was stored [m^2]: the shared part of the two
+/// poses' uncertainty cancels in their relative pose. It sizes both the revisit search and
+/// the correction's gate and weight.
+double driftVariance(const Matrix6d& pose_covariance, double old_position_variance_m2) {
+  return std::max(pose_covariance.bottomRightCorner<3, 3>().trace() - old_position_variance_m2, 1e-4);
+}
+
 }  // namespace
 
 std::string_view toString(GlobalRejection r) {
@@ -211,9 +218,8 @@ std::vector<matching::TemporalMatch> GlobalRefiner::matchRevisit(const RevisitFr
     return {};
   }
   if (old_features.points.empty()) return {};
-  // The drift accumulated since the old frame sizes the search: the shared part of the two
-  // poses' uncertainty cancels in their relative pose.
-  const double drift_var = std::max(pose_covariance.bottomRightCorner<3, 3>().trace() - old.position_variance_m2, 1e-4);
+  // The drift accumulated since the old frame sizes the search.
+  const double drift_var = driftVariance(pose_covariance, old.position_variance_m2);
   Matrix6d cov = Matrix6d::Zero();
   cov.topLeftCorner<3, 3>() = pose_covariance.topLeftCorner<3, 3>() + Eigen::Matrix3d::Identity() * 1e-6;
   cov.bottomRightCorner<3, 3>() = Eigen::Matrix3d::Identity() * (drift_var / 3.0);
@@ -234,7 +240,7 @@ bool GlobalRefiner::reobserve(const RevisitFrame& old, const matching::StereoFea
                               const std::vector<matching::TemporalMatch>& matches, const Matrix6d& pose_covariance,
                               std::mt19937& rng, Eigen::Isometry3d& T_W_R0, GlobalCorrection& out) {
   if (static_cast<int>(matches.size()) < params_.revisit_min_inliers) return false;
-  const double drift_var = std::max(pose_covariance.bottomRightCorner<3, 3>().trace() - old.position_variance_m2, 1e-4);
+  const double drift_var = driftVariance(pose_covariance, old.position_variance_m2);
   const Eigen::Isometry3d guess = old.T_W_R0.inverse() * T_W_R0;
   std::vector<geometry::QuadMatch> quads;
   quads.reserve(matches.size());
