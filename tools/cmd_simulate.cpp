@@ -28,6 +28,7 @@ struct SimulateOptions {
   bool snow = false, unlimited_turn_rate = false, constant_depth = false, no_sway = false;
   std::vector<std::string> vision_loss;
   double vision_loss_altitude = 0;
+  double ripple_amplitude_mm = 0;
 };
 
 void runSimulate(const SimulateOptions& o, CLI::App& cmd) {
@@ -57,6 +58,7 @@ void runSimulate(const SimulateOptions& o, CLI::App& cmd) {
   if (o.unlimited_turn_rate) c.trajectory.unlimited_turn_rate = true;
   if (o.constant_depth) c.trajectory.follow_altitude = false;
   if (o.no_sway) c.trajectory.roll_amplitude_deg = c.trajectory.pitch_amplitude_deg = 0;
+  if (cmd.count("--ripple-amplitude")) c.seafloor.ripple_amplitude_m = o.ripple_amplitude_mm * 1e-3;
   if (cmd.count("--frames") && c.frames >= 1) {
     // Cutting a preset drops its stretches that would start after the last frame (a stretch
     // given on the command line there is still an error).
@@ -116,6 +118,9 @@ const RegisterCommand kRegister{"simulate", [](CLI::App& app) {
   cmd->add_flag("--unlimited-turn-rate", opts->unlimited_turn_rate, "the paper's near-instant turns");
   cmd->add_flag("--constant-depth", opts->constant_depth, "hold depth instead of following the relief");
   cmd->add_flag("--no-sway", opts->no_sway, "no roll/pitch sway");
+  cmd->add_option("--ripple-amplitude", opts->ripple_amplitude_mm,
+                  "sand ripple amplitude [mm] (default 8; 0: a floor without ripples)")
+      ->check(CLI::Range(0.0, 100.0));
   cmd->add_option("--vision-loss", opts->vision_loss,
                   "KIND:START_S:DURATION_S, repeatable; KIND = blackout | turbidity | featureless | altitude "
                   "(START_S in seconds after the first frame)")

@@ -807,6 +807,9 @@ std::vector<std::string> validate(const SurfParams& p) {
   if (p.octave_layers < 1 || p.octave_layers > 8) {
     errors.push_back("surf.octave_layers must be in [1, 8]");
   }
+  if (p.first_octave < 0 || (p.octaves >= 1 && p.first_octave >= p.octaves)) {
+    errors.push_back("surf.first_octave must be in [0, surf.octaves - 1]");
+  }
   if (p.max_features < 0) errors.push_back("surf.max_features must be >= 0 (0 = no cap)");
   return errors;
 }
@@ -921,7 +924,7 @@ SEAVIO_SURF_INLINE void Surf::runWith(const cv::Mat& gray8, double hessian_thres
     workspace.scratch_capacity_ = scratch_size;
   }
   uint32_t* const row_scratch = workspace.scratch_.get();
-  for (int octave = 0; octave < params_.octaves; ++octave) {
+  for (int octave = params_.first_octave; octave < params_.octaves; ++octave) {
     const int step = 1 << octave;
     const int rows = (height - 1) / step + 1, cols = (width - 1) / step + 1;
     // The largest filter of the octave bounds where a full 3x3x3 neighbourhood exists.

@@ -21,6 +21,8 @@ struct SurfParams {
                                    ///< argument of Surf::detectAndCompute takes precedence
   int octaves = 4;                 ///< number of octaves (filter sizes double per octave)
   int octave_layers = 2;           ///< maxima-bearing layers per octave (filters = layers + 2)
+  int first_octave = 0;            ///< finest octave searched (1 skips the 9-27 px filters, whose
+                                   ///< features on lit sand ripples slide with the lights)
   bool extended = false;           ///< 128-element descriptor instead of 64
   bool upright = false;            ///< U-SURF: no orientation, descriptor in image axes
   int max_features = 0;            ///< 0 = no cap; else keep the strongest by det(H)

@@ -157,6 +157,7 @@ void visitFeatures(V& v, features::FeatureParams& p) {
   v.section("surf", [&] {
     v.value("octaves", p.surf.octaves, 1, 8);
     v.value("octave_layers", p.surf.octave_layers, 1, 8);
+    v.value("first_octave", p.surf.first_octave, 0, 7);
     v.flag("extended", p.surf.extended);
     v.flag("upright", p.surf.upright);
   });

@@ -250,6 +250,33 @@ TEST(Surf, BadOrTinyInputNeverCrashes) {
   return ::testing::AssertionSuccess();
 }
 
+TEST(Surf, FirstOctaveSkipsOnlyTheFinerScales) {
+  // GIVEN a texture with features at every scale, described with all octaves and from octave 1
+  const cv::Mat img = makeTexture(320, 240, 4);
+  std::vector<cv::KeyPoint> all, coarse;
+  cv::Mat all_desc, coarse_desc;
+  Surf(SurfParams{}).detectAndCompute(img, 100, all, all_desc);
+  SurfParams from1;
+  from1.first_octave = 1;
+  Surf(from1).detectAndCompute(img, 100, coarse, coarse_desc);
+  // WHEN the full run's octave-0 features are left out
+  std::vector<cv::KeyPoint> kept;
+  cv::Mat kept_desc;
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    if (all[i].octave == 0) continue;
+    kept.push_back(all[i]);
+    kept_desc.push_back(all_desc.row(static_cast<int>(i)));
+  }
+  // THEN the run from octave 1 is exactly the rest: the octaves are independent
+  ASSERT_GT(kept.size(), 10u);
+  ASSERT_LT(kept.size(), all.size());
+  EXPECT_TRUE(sameOutput(coarse, coarse_desc, kept, kept_desc));
+  // AND an octave past the last is refused
+  SurfParams bad;
+  bad.first_octave = bad.octaves;
+  EXPECT_EQ(validate(bad).size(), 1u);
+}
+
 TEST(Surf, WorkspaceReuseAcrossSizesGivesIdenticalOutput) {
   // GIVEN one workspace used for a large image, then a smaller one, then the large one again
   const Surf surf{SurfParams{}};

@@ -138,5 +138,32 @@ TEST(SimulateCli, BadPresetAndExistingDatasetExitNonZero) {
   EXPECT_EQ(std::system((exe + " simulate short-plain --frames 1 --force --out " + out + " 2>/dev/null").c_str()), 0);
 }
 
+TEST(SimulateCli, RippleAmplitudeZeroRendersAFloorWithoutSandRipples) {
+  // The control for the lit-ripple scale error (docs/architecture.md, issue 4): the same seed
+  // and path over a floor whose only change is the ripples.
+  const std::string exe = std::string(SEAVIO_BINARY_DIR) + "/bin/seavio";
+  if (!fs::exists(exe)) GTEST_SKIP() << "build the seavio target to run the CLI checks";
+  test::ScratchDir dir("cli_ripples");
+  const auto render = [&](const std::string& name, const std::string& extra) {
+    const std::string out = (dir.path() / name).string();
+    return std::system((exe + " simulate short-plain --frames 1 --width 160 --seed 3 " + extra + " --out " + out +
+                        " 2>/dev/null")
+                           .c_str());
+  };
+  ASSERT_EQ(render("rippled", ""), 0);
+  ASSERT_EQ(render("smooth", "--ripple-amplitude 0"), 0);
+  EXPECT_NE(render("negative", "--ripple-amplitude -1"), 0);
+  const auto firstImage = [&](const std::string& name) {
+    const drivers::Dataset d = drivers::loadEuroc((dir.path() / name).string());
+    return drivers::loadFrame(d, 0).left;
+  };
+  const cv::Mat rippled = firstImage("rippled"), smooth = firstImage("smooth");
+  ASSERT_EQ(rippled.size(), smooth.size());
+  // The ripples are a few percent of the image's texture, not all of it.
+  const double diff = cv::norm(rippled, smooth, cv::NORM_L1) / static_cast<double>(rippled.total());
+  EXPECT_GT(diff, 0.5);
+  EXPECT_LT(diff, 60.0);
+}
+
 }  // namespace
 }  // namespace seavio::simulate
