@@ -222,6 +222,7 @@ void visit(V& v, odometry::OdometryParams& p) {
     v.value("window_s", p.accel_bias.window_s, 0, 1000);
     v.value("gate_sigmas", p.accel_bias.gate_sigmas, 0.1, 1000);
   });
+  v.value("heading_bias_error_rad_s", p.heading_bias_error_rad_s, 0, 1);
   v.value("min_revisit_age_s", p.min_revisit_age_s, 0, 1e9);
   v.value("max_map_correction_m", p.max_map_correction_m, 0, 1000);
   v.value("max_map_correction_rad", p.max_map_correction_rad, 0, 3.2);
