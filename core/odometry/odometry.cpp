@@ -76,6 +76,8 @@ GlobalRefinerParams globalRefinerParams(const OdometryParams& p) {
   g.max_revisit_search_m = p.max_revisit_search_m;
   g.revisit_candidates = p.revisit_candidates;
   g.revisit_disc_candidates = p.revisit_disc_candidates;
+  g.revisit_agreement_m = p.revisit_agreement_m;
+  g.revisit_witness_window_s = p.revisit_witness_window_s;
   return g;
 }
 

@@ -170,6 +170,10 @@ struct OdometryParams {
   /// Drift disc wider than the map's selection radius: this many old keyframes in it (nearest
   /// first) are ranked by descriptor matches, the best revisit_candidates verified; 0 = off.
   int revisit_disc_candidates = 12;
+  /// A jump back onto old ground larger than max_revisit_correction_m needs two old keyframes
+  /// that place the frame within this distance of each other [m].
+  double revisit_agreement_m = 0.3;
+  double revisit_witness_window_s = 5.0;     ///< ...or one seen by a frame this recent [s]
   uint32_t seed = 1;                         ///< RANSAC random stream
   GlobalDelivery global_delivery = GlobalDelivery::kInline;
   /// Deferred global step through this link: track() first applies every correction the

@@ -234,6 +234,8 @@ void visit(V& v, odometry::OdometryParams& p) {
   v.value("max_revisit_search_m", p.max_revisit_search_m, 0, 1000);
   v.value("revisit_candidates", p.revisit_candidates, 1, 100);
   v.value("revisit_disc_candidates", p.revisit_disc_candidates, 0, 1000);
+  v.value("revisit_agreement_m", p.revisit_agreement_m, 0, 1000);
+  v.value("revisit_witness_window_s", p.revisit_witness_window_s, 0, 1e6);
   v.value("seed", p.seed, 0, 4294967295.0);
   v.flag("use_rotation_prior", p.use_rotation_prior);
   v.section("refinement", [&] {
