@@ -125,8 +125,9 @@ void RunStats::writeJson(const std::string& path) const {
               f.times.rectify_ms, f.times.features_ms, f.times.stereo_ms, f.times.temporal_ms, f.times.tensor_ms,
               f.times.icp_ms, f.times.total_ms);
     // The position sigma the odometry claims (global mode sizes its revisit search by it).
-    os << fmt::format(", \"position_sigma_m\": {:.4f}",
-                      std::sqrt(std::max(f.covariance.bottomRightCorner<3, 3>().trace(), 0.0)));
+    os << fmt::format(", \"position_sigma_m\": {:.4f}, \"map_refined\": {}",
+                      std::sqrt(std::max(f.covariance.bottomRightCorner<3, 3>().trace(), 0.0)),
+                      f.quality.map_refined ? 1 : 0);
     if (gyro_bias_.size() == frames_.size() && accel_bias_.size() == frames_.size()) {
       const Eigen::Vector3d& g = gyro_bias_[i];
       const Eigen::Vector3d& a = accel_bias_[i];

@@ -196,10 +196,35 @@ bool GlobalRefiner::correctFromRevisit(const matching::StereoFeatures& current,
                      [&](std::size_t a, std::size_t b) { return matches[a].size() > matches[b].size(); });
     order.resize(try_n);
   }
+  // A jump within max_revisit_correction_m is taken on one old keyframe's word. A larger one
+  // (metres of drift at the first revisit of a long survey) needs a second witness that shifts
+  // the frame the same way: another old keyframe seen by this frame, or one seen by a frame of
+  // the last revisit_witness_window_s (the odometry between them drifts by centimetres). One
+  // wrong RANSAC consensus can move a frame anywhere in the disc; two agreeing to decimetres
+  // are not chance.
+  const Eigen::Vector3d p_W = T_W_R0.translation();
+  const auto agrees = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+    return (a - b).norm() <= params_.revisit_agreement_m;
+  };
+  const int64_t window_ns = static_cast<int64_t>(params_.revisit_witness_window_s * 1e9);
+  if (pending_jump_ && t_ns - pending_jump_->first > window_ns) pending_jump_.reset();
+  std::optional<RevisitMeasurement> witness;
   for (std::size_t i : order) {
     if (!ranked) matches[i] = matchRevisit(*old[i], current, pose_covariance, T_W_R0);
-    if (reobserve(*old[i], current, matches[i], pose_covariance, rng, T_W_R0, out)) return true;
+    const std::optional<RevisitMeasurement> m = measureRevisit(*old[i], current, matches[i], pose_covariance, rng, T_W_R0);
+    if (!m) continue;
+    const Eigen::Vector3d shift = m->measured.translation() - p_W;
+    const bool small = m->jump_m <= params_.max_revisit_correction_m;
+    const bool seen_here = witness && agrees(witness->measured.translation() - p_W, shift);
+    const bool seen_before = pending_jump_ && agrees(pending_jump_->second, shift);
+    if (small || seen_here || seen_before) {
+      applyRevisit(seen_here && witness->inliers > m->inliers ? *witness : *m, T_W_R0, out);
+      pending_jump_.reset();
+      return true;
+    }
+    if (!witness) witness = m;
   }
+  if (witness) pending_jump_.emplace(t_ns, witness->measured.translation() - p_W);
   return false;
 }
 
@@ -236,10 +261,10 @@ std::vector<matching::TemporalMatch> GlobalRefiner::matchRevisit(const RevisitFr
   return matching::matchTemporal(old_features, current, rig_, guess, cov, match_params);
 }
 
-bool GlobalRefiner::reobserve(const RevisitFrame& old, const matching::StereoFeatures& current,
-                              const std::vector<matching::TemporalMatch>& matches, const Matrix6d& pose_covariance,
-                              std::mt19937& rng, Eigen::Isometry3d& T_W_R0, GlobalCorrection& out) {
-  if (static_cast<int>(matches.size()) < params_.revisit_min_inliers) return false;
+std::optional<GlobalRefiner::RevisitMeasurement> GlobalRefiner::measureRevisit(
+    const RevisitFrame& old, const matching::StereoFeatures& current, const std::vector<matching::TemporalMatch>& matches,
+    const Matrix6d& pose_covariance, std::mt19937& rng, const Eigen::Isometry3d& T_W_R0) {
+  if (static_cast<int>(matches.size()) < params_.revisit_min_inliers) return std::nullopt;
   const double drift_var = driftVariance(pose_covariance, old.position_variance_m2);
   const Eigen::Isometry3d guess = old.T_W_R0.inverse() * T_W_R0;
   std::vector<geometry::QuadMatch> quads;
@@ -252,24 +277,32 @@ bool GlobalRefiner::reobserve(const RevisitFrame& old, const matching::StereoFea
   const geometry::RansacResult ransac = ransac_.estimate(quads, guess, rng);
   if (ransac.status != geometry::RansacStatus::kOk ||
       static_cast<int>(ransac.inliers.size()) < params_.revisit_min_inliers || !finitePose(ransac.T_prev_curr))
-    return false;
-  const Eigen::Isometry3d measured = old.T_W_R0 * ransac.T_prev_curr;
-  const Eigen::Isometry3d correction = T_W_R0.inverse() * measured;
+    return std::nullopt;
+  RevisitMeasurement m;
+  m.measured = old.T_W_R0 * ransac.T_prev_curr;
+  m.jump_m = (T_W_R0.inverse() * m.measured).translation().norm();
   // A jump back onto old ground larger than the drift could explain is a wrong match.
   const double max_jump = std::max(params_.max_revisit_correction_m,
                                    std::min(params_.revisit_search_sigmas * std::sqrt(drift_var),
                                             params_.max_revisit_search_m));
-  if (correction.translation().norm() > max_jump) return false;
+  if (m.jump_m > max_jump) return std::nullopt;
+  m.drift_var = drift_var;
+  m.meas_var = std::max(Matrix6d(ransac.covariance).bottomRightCorner<3, 3>().trace(), 1e-8);
+  m.old_position_variance_m2 = old.position_variance_m2;
+  m.inliers = static_cast<int>(ransac.inliers.size());
+  return m;
+}
+
+void GlobalRefiner::applyRevisit(const RevisitMeasurement& m, Eigen::Isometry3d& T_W_R0, GlobalCorrection& out) {
   // Blend by uncertainty: the re-observation carries the old pose's error plus its own
   // noise, the odometry the same old error plus the drift since.
-  const double meas_var = std::max(Matrix6d(ransac.covariance).bottomRightCorner<3, 3>().trace(), 1e-8);
-  const double w = drift_var / (drift_var + meas_var);
+  const Eigen::Isometry3d correction = T_W_R0.inverse() * m.measured;
+  const double w = m.drift_var / (m.drift_var + m.meas_var);
   T_W_R0 = orthonormalized(T_W_R0 * se3::expSE3(w * se3::logSE3(correction)));
   out.covariance_scale = 1.0 - w;
-  out.added_position_variance_m2 = w * old.position_variance_m2 / 3.0;
+  out.added_position_variance_m2 = w * m.old_position_variance_m2 / 3.0;
   out.revisit_used = true;
   ++revisit_corrections_;
-  return true;
 }
 
 std::size_t GlobalRefiner::memoryBytes() const {

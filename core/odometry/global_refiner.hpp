@@ -11,6 +11,7 @@
 #include <span>
 #include <string_view>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -48,6 +49,11 @@ struct GlobalRefinerParams {
   /// it (nearest first) are ranked by descriptor matches and the best revisit_candidates of
   /// them verified; 0: the nearest revisit_candidates only.
   int revisit_disc_candidates = 12;
+  /// A jump larger than max_revisit_correction_m is taken only when two old keyframes put the
+  /// frame within this distance of each other [m].
+  double revisit_agreement_m = 0.3;
+  /// ...or when a frame of the last this many seconds saw one that shifted it the same way [s].
+  double revisit_witness_window_s = 5.0;
 };
 
 /// One frame handed to the global step, after the local odometry has estimated it.
@@ -167,11 +173,22 @@ class GlobalRefiner {
   std::vector<matching::TemporalMatch> matchRevisit(const RevisitFrame& old, const matching::StereoFeatures& current,
                                                     const Eigen::Matrix<double, 6, 6>& pose_covariance,
                                                     const Eigen::Isometry3d& T_W_R0) const;
-  /// Re-observation of one old keyframe from its matches: RANSAC, gate, blend. True if applied.
-  bool reobserve(const RevisitFrame& old, const matching::StereoFeatures& current,
-                 const std::vector<matching::TemporalMatch>& matches,
-                 const Eigen::Matrix<double, 6, 6>& pose_covariance, std::mt19937& rng, Eigen::Isometry3d& T_W_R0,
-                 GlobalCorrection& out);
+  /// Where one old keyframe, seen again, puts the frame.
+  struct RevisitMeasurement {
+    Eigen::Isometry3d measured = Eigen::Isometry3d::Identity();  ///< the frame's pose in W it implies
+    double jump_m = 0;                   ///< its distance from the odometry's pose [m]
+    double drift_var = 0;                ///< position variance gained since the old frame [m^2]
+    double meas_var = 0;                 ///< the re-measurement's own position variance [m^2]
+    double old_position_variance_m2 = 0; ///< the old frame's position variance [m^2]
+    int inliers = 0;                     ///< RANSAC inliers against the old frame
+  };
+  /// Re-observation of one old keyframe from its matches: RANSAC and the drift gate.
+  std::optional<RevisitMeasurement> measureRevisit(const RevisitFrame& old, const matching::StereoFeatures& current,
+                                                   const std::vector<matching::TemporalMatch>& matches,
+                                                   const Eigen::Matrix<double, 6, 6>& pose_covariance,
+                                                   std::mt19937& rng, const Eigen::Isometry3d& T_W_R0);
+  /// Moves the pose towards a measurement by the weight drift / (drift + measurement variance).
+  void applyRevisit(const RevisitMeasurement& m, Eigen::Isometry3d& T_W_R0, GlobalCorrection& out);
 
   camera::RectifiedRig rig_;
   GlobalRefinerParams params_;
@@ -182,6 +199,9 @@ class GlobalRefiner {
   std::unordered_map<uint64_t, RevisitFrame> revisit_frames_;  ///< by map keyframe id
   Eigen::Vector3d last_revisit_position_ = Eigen::Vector3d::Constant(1e300);
   int revisit_corrections_ = 0;
+  /// A large jump seen by one old keyframe only, waiting for a second witness: when, and the
+  /// position shift it asked for in W.
+  std::optional<std::pair<int64_t, Eigen::Vector3d>> pending_jump_;
   /// Corrections refine() issued that moved a frame, oldest first, until a request shows the
   /// odometry has applied them (GlobalRequest::last_applied_correction).
   std::deque<std::pair<uint64_t, Eigen::Isometry3d>> unapplied_;

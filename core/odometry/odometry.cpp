@@ -5,6 +5,7 @@
 
 #include "core/common/se3.hpp"
 #include "core/common/stage_timer.hpp"
+#include "core/odometry/chain_covariance.hpp"
 #include "core/odometry/motion_refinement.hpp"
 #include "core/odometry/pose_checks.hpp"
 
@@ -75,6 +76,8 @@ GlobalRefinerParams globalRefinerParams(const OdometryParams& p) {
   g.max_revisit_search_m = p.max_revisit_search_m;
   g.revisit_candidates = p.revisit_candidates;
   g.revisit_disc_candidates = p.revisit_disc_candidates;
+  g.revisit_agreement_m = p.revisit_agreement_m;
+  g.revisit_witness_window_s = p.revisit_witness_window_s;
   return g;
 }
 
@@ -501,7 +504,12 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     state_covariance_.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() * std::pow(params_.attitude_sigma_rad, 2);
     state_covariance_.block<3, 3>(3, 3) = Eigen::Matrix3d::Identity() * std::pow(params_.velocity_sigma_m_s, 2);
     if (on_keyframe) pose_covariance_ = keyframe_->pose_covariance;
-    accumulate(pose_covariance_, rel_cov, T_W_ref.rotation());
+    // The reference's rotation error turns this step, and the heading random-walks with the
+    // gyro-bias error since the reference (chain_covariance.hpp: the global search's sigma).
+    const double bias_time_constant_s = params_.gyro_bias_gain > 0 ? dt_s / params_.gyro_bias_gain : 0.0;
+    composeChainCovariance(pose_covariance_, rel_cov, T_W_ref.rotation(),
+                           T_W_R0.translation() - map_shift_W - T_W_ref.translation(),
+                           headingVariance(params_.heading_bias_error_rad_s, bias_time_constant_s, dt_ref_s));
     // The keyframe this frame was tracked against moves with it (the same delta in W as
     // applyGlobalCorrection composes), so the frames tracked against it next keep the map's
     // correction instead of falling back to where the odometry alone put them; its

@@ -147,6 +147,11 @@ struct OdometryParams {
   /// and white noise of the bias come from the IMU's noise model, not from these params.
   bool accel_bias_estimation = false;
   imu::AccelBiasParams accel_bias;
+  /// Error (1 sigma) of the heading part of the gyro-bias estimate [rad/s]: the chain's pose
+  /// covariance gains heading variance from it, correlated over the estimator's time constant
+  /// (frame interval / gyro_bias_gain), and turns that into position (chain_covariance.hpp).
+  /// Sizes the global re-observation search; the trajectory of local mode does not use it.
+  double heading_bias_error_rad_s = 1.5e-4;
   double min_revisit_age_s = 30.0;           ///< global mode: map frames at least this old trigger ICP [s]
   double max_map_correction_m = 0.03;        ///< global mode: largest accepted ICP correction [m]
   double max_map_correction_rad = 0.005;     ///< ... and rotation [rad]
@@ -165,6 +170,10 @@ struct OdometryParams {
   /// Drift disc wider than the map's selection radius: this many old keyframes in it (nearest
   /// first) are ranked by descriptor matches, the best revisit_candidates verified; 0 = off.
   int revisit_disc_candidates = 12;
+  /// A jump back onto old ground larger than max_revisit_correction_m needs two old keyframes
+  /// that place the frame within this distance of each other [m].
+  double revisit_agreement_m = 0.3;
+  double revisit_witness_window_s = 5.0;     ///< ...or one seen by a frame this recent [s]
   uint32_t seed = 1;                         ///< RANSAC random stream
   GlobalDelivery global_delivery = GlobalDelivery::kInline;
   /// Deferred global step through this link: track() first applies every correction the

@@ -223,6 +223,7 @@ void visit(V& v, odometry::OdometryParams& p) {
     v.value("window_s", p.accel_bias.window_s, 0, 1000);
     v.value("gate_sigmas", p.accel_bias.gate_sigmas, 0.1, 1000);
   });
+  v.value("heading_bias_error_rad_s", p.heading_bias_error_rad_s, 0, 1);
   v.value("min_revisit_age_s", p.min_revisit_age_s, 0, 1e9);
   v.value("max_map_correction_m", p.max_map_correction_m, 0, 1000);
   v.value("max_map_correction_rad", p.max_map_correction_rad, 0, 3.2);
@@ -234,6 +235,8 @@ void visit(V& v, odometry::OdometryParams& p) {
   v.value("max_revisit_search_m", p.max_revisit_search_m, 0, 1000);
   v.value("revisit_candidates", p.revisit_candidates, 1, 100);
   v.value("revisit_disc_candidates", p.revisit_disc_candidates, 0, 1000);
+  v.value("revisit_agreement_m", p.revisit_agreement_m, 0, 1000);
+  v.value("revisit_witness_window_s", p.revisit_witness_window_s, 0, 1e6);
   v.value("seed", p.seed, 0, 4294967295.0);
   v.flag("use_rotation_prior", p.use_rotation_prior);
   v.section("refinement", [&] {

@@ -249,6 +249,65 @@ TEST(GlobalRevisitDisc, AFrameOverGroundNeverMappedIsNotPulledOntoTheKeyframesOf
   EXPECT_TRUE(c.T_W_R0.isApprox(T_est * rig.T_B_R0, 1e-12));
 }
 
+TEST(GlobalRevisitDisc, AJumpLargerThanTheCapNeedsASecondWitnessOneFrameOfItIsNotEnough) {
+  // GIVEN re-observation keyframes every 6 m of an old leg (so a frame overlaps one of them
+  // only) and frames over x = 12 and 12.5 m whose odometry has drifted 8 m ahead, sigma 4 m
+  camera::StereoRectifier rect = makeRectifier();
+  const camera::RectifiedRig rig = rect.rig();
+  std::mt19937 rng(5);
+  const test::SyntheticFloor floor = test::randomFloor(rng, 6000, -3.0, 40.0, 3.0, -4.0);
+  std::normal_distribution<double> pix(0.0, 0.1);
+  OdometryParams p = globalParams();
+  p.revisit_keyframe_distance_m = 6.0;
+  const auto bodyAt = [](double x) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation() = Eigen::Vector3d(x, 0, 0);
+    return T;
+  };
+  const auto makeRefiner = [&](const OdometryParams& params) {
+    GlobalRefiner refiner(rig, globalRefinerParams(params));
+    std::mt19937 map_rng(9);
+    for (int i = 0; i <= 36; ++i) {
+      const FrameFeatures f = test::floorFrame(rig, floor.points_W, floor.descriptors, bodyAt(i),
+                                               static_cast<uint64_t>(i), static_cast<int64_t>(i) * 1'000'000'000, pix,
+                                               map_rng);
+      refiner.insertKeyframe(static_cast<uint64_t>(i), static_cast<int64_t>(i) * 1'000'000'000,
+                             bodyAt(i) * rig.T_B_R0, {}, f.stereo, 3e-4, i == 0);
+    }
+    return refiner;
+  };
+  Eigen::Matrix<double, 6, 6> cov = Eigen::Matrix<double, 6, 6>::Identity() * 1e-6;
+  cov.bottomRightCorner<3, 3>() = Eigen::Matrix3d::Identity() * 16.0;
+  const auto frameAt = [&](double true_x, uint64_t id) {
+    return test::floorFrame(rig, floor.points_W, floor.descriptors, bodyAt(true_x), id,
+                            static_cast<int64_t>(id) * 1'000'000'000, pix, rng);
+  };
+  const FrameFeatures first = frameAt(12.0, 100), second = frameAt(12.5, 101);
+  const Eigen::Vector3d truth_second = (bodyAt(12.5) * rig.T_B_R0).translation();
+  // WHEN the 8 m jump's cap is the drift's 3 sigma alone (the earlier gate: one witness)
+  OdometryParams one = p;
+  one.max_revisit_correction_m = 25.0;
+  GlobalRefiner trusting = makeRefiner(one);
+  // THEN the first frame's one old keyframe moves it
+  EXPECT_TRUE(trusting.correct(first.stereo, {}, 100, 100'000'000'000, bodyAt(20.0) * rig.T_B_R0, cov, rng).revisit_used);
+  // WHEN a jump beyond max_revisit_correction_m needs a second witness
+  GlobalRefiner refiner = makeRefiner(p);
+  const GlobalCorrection a =
+      refiner.correct(first.stereo, {}, 100, 100'000'000'000, bodyAt(20.0) * rig.T_B_R0, cov, rng);
+  // THEN one old keyframe is not enough: the frame stays where the odometry put it
+  EXPECT_FALSE(a.revisit_used);
+  EXPECT_TRUE(a.T_W_R0.isApprox(bodyAt(20.0) * rig.T_B_R0, 1e-12));
+  // AND the next frame, shifted the same way by its own old keyframe, is moved onto the truth
+  const GlobalCorrection b =
+      refiner.correct(second.stereo, {}, 101, 101'000'000'000, bodyAt(20.5) * rig.T_B_R0, cov, rng);
+  ASSERT_TRUE(b.revisit_used);
+  EXPECT_LT((b.T_W_R0.translation() - truth_second).norm(), 0.1);
+  // AND a witness older than revisit_witness_window_s does not count
+  GlobalRefiner late = makeRefiner(p);
+  EXPECT_FALSE(late.correct(first.stereo, {}, 100, 100'000'000'000, bodyAt(20.0) * rig.T_B_R0, cov, rng).revisit_used);
+  EXPECT_FALSE(late.correct(second.stereo, {}, 101, 110'000'000'000, bodyAt(20.5) * rig.T_B_R0, cov, rng).revisit_used);
+}
+
 struct SurveyRun {
   std::vector<Eigen::Vector3d> est, truth;
   int changed = 0;
