@@ -2,7 +2,7 @@
 # One-command sanitizer run (issue 9); .ci/run calls both modes.
 #   scripts/sanitize.sh address   ASan+UBSan build in build-asan, whole ctest suite
 #   scripts/sanitize.sh thread    TSan build in build-tsan of the daemon and LCM test executables
-#                                 (and the seaviod they run), every test in them but one
+#                                 (and the seaviod/seavio they run), every test in them
 # Environment: SEAVIO_JOBS (default 2: the machine is shared), SEAVIO_CTEST_ARGS (extra ctest args),
 #   SEAVIO_SAN_FLAGS (optimisation and debug flags, default "-O1 -g1 -DNDEBUG -Wno-stringop-overflow
 #   -Wno-array-bounds -Wno-maybe-uninitialized":
@@ -34,12 +34,10 @@ case "$mode" in
   thread)
     build=build-tsan
     # Only what the threaded tests need, so the TSan build stays small: test_daemon (and the
-    # seaviod it runs) and the LCM driver tests. All their tests run (rings, workers,
+    # seaviod/seavio it runs) and the LCM driver tests. All their tests run (rings, workers,
     # scheduling, global thread, faults, end to end); the executables not built here leave a
-    # placeholder test <name>_NOT_BUILT in ctest, which is what -E leaves out. The `seavio`
-    # CLI is not built: its one user in these executables is the reference run of the
-    # accuracy test left out below (14 objects fewer: tools/main.cpp, cmd_*.cpp and seavio_tools).
-    targets=(--target test_daemon test_drivers_lcm seaviod)
+    # placeholder test <name>_NOT_BUILT in ctest, which is what -E leaves out.
+    targets=(--target test_daemon test_drivers_lcm seaviod seavio)
     # SeaviodE2E.AravisStereoAndSerialImuGivePosesAsAccurateAsSeavioRun is left out here and
     # only here (it runs in the Release and ASan phases): it is an accuracy test that needs the
     # daemon to keep up with 5 fps stereo, and under TSan seaviod processes ~10 of ~100 frames
