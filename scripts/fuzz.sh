@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
 # One-command libFuzzer runs (issue 9, "Bad input tried").
 #   scripts/fuzz.sh smoke [SECONDS]   build the fuzz targets (clang, build-fuzz) and run each for
-#                                     SECONDS (default 20) over its committed seed corpus: the CI job
+#                                     SECONDS (default 20) over its committed seed corpus, SEAVIO_JOBS
+#                                     targets side by side: the CI job
 #   scripts/fuzz.sh long SECONDS      longer runs, one target at a time; new inputs accumulate in
 #                                     build-fuzz/corpus_long/<target> between runs
 #   scripts/fuzz.sh list              the target names
-# Environment: SEAVIO_FUZZ_TARGETS (space-separated names, default all), SEAVIO_JOBS (build, default 2).
+# Environment: SEAVIO_FUZZ_TARGETS (space-separated names, default all), SEAVIO_JOBS (build jobs and
+#   smoke targets at once, default 2).
 # The committed corpora in fuzz/corpus/ are only read; new inputs go to the build tree and crash
 # inputs to build-fuzz/artifacts/<target>-crash-*. Prints executions and crashes per target.
 # Exit status: 0 if no target crashed, 1 otherwise, 2 on bad usage.
@@ -42,12 +44,11 @@ cmake --build "$build" -j"$jobs" --target "${targets[@]/#/fuzz_}" > "$build/buil
   { tail -n 50 "$build/build.log" >&2; exit 1; }
 
 mkdir -p "$build/artifacts" "$build/logs"
-failed=0
-printf '%-20s %8s %12s %8s %8s  %s\n' target seconds executions exec/s crashes result
-for t in "${targets[@]}"; do
-  bin="$build/fuzz/fuzz_$t"
-  seeds="fuzz/corpus/$t"
-  [[ -x "$bin" && -d "$seeds" ]] || { echo "$t: no binary $bin or no corpus $seeds" >&2; failed=1; continue; }
+# One target: prints its table row (and, on failure, the first report line and the crash
+# inputs) and returns non-zero if the target failed.
+run_one() {
+  local t=$1 bin="$build/fuzz/fuzz_$1" seeds="fuzz/corpus/$1" work log status execs rate last crashes result
+  [[ -x "$bin" && -d "$seeds" ]] || { echo "$t: no binary $bin or no corpus $seeds" >&2; return 1; }
   if [[ "$mode" == smoke ]]; then
     work="$build/corpus_smoke/$t"
     rm -rf "$work"
@@ -59,8 +60,8 @@ for t in "${targets[@]}"; do
   rm -f "$build/artifacts/$t"-*
   status=0
   # -rss_limit_mb: a reader must never need gigabytes for a few kilobytes of input.
-  common=(-max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len=65536
-          -artifact_prefix="$build/artifacts/$t-")
+  local common=(-max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len=65536
+                -artifact_prefix="$build/artifacts/$t-")
   if [[ "$mode" == smoke ]]; then
     "$bin" "$work" "$seeds" "${common[@]}" -print_final_stats=1 > "$log" 2>&1 || status=$?
     execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -n 1)
@@ -77,12 +78,35 @@ for t in "${targets[@]}"; do
   result=ok
   if [[ $status -ne 0 || $crashes -ne 0 ]]; then
     result="FAILED (exit $status, log $log)"
-    failed=1
   fi
   printf '%-20s %8s %12s %8s %8s  %s\n' "$t" "$seconds" "${execs:-?}" "${rate:-?}" "$crashes" "$result"
   if [[ $status -ne 0 ]]; then
     grep -m 1 -E "ERROR: |runtime error|SUMMARY" "$log" >&2 || true
     find "$build/artifacts" -maxdepth 1 -name "$t-*" >&2
   fi
+  [[ "$result" == ok ]]
+}
+
+# Smoke runs go $jobs at a time: each target is one single-threaded process with its own
+# corpus, log and artifact prefix, so running them side by side changes nothing but the wall
+# time (CI: 10 targets x 10 s, 100 s one at a time, 50 s two at a time). Long runs stay one at
+# a time, so each gets a whole core for its SECONDS. Rows print in target order either way.
+parallel=1
+[[ "$mode" == smoke ]] && parallel=$jobs
+failed=0
+running=0
+for t in "${targets[@]}"; do
+  if (( running >= parallel )); then
+    wait -n || true
+    running=$((running - 1))
+  fi
+  ( run_one "$t" > "$build/logs/$t.$mode.row" 2>&1; echo $? > "$build/logs/$t.$mode.rc" ) &
+  running=$((running + 1))
+done
+wait
+printf '%-20s %8s %12s %8s %8s  %s\n' target seconds executions exec/s crashes result
+for t in "${targets[@]}"; do
+  cat "$build/logs/$t.$mode.row"
+  [[ "$(cat "$build/logs/$t.$mode.rc" 2>/dev/null)" == 0 ]] || failed=1
 done
 exit $failed
