@@ -159,34 +159,45 @@ TEST(GlobalRefiner, IcpPullsADriftedFrameBackWithinTheGateAndRefusesLargerJumps)
   EXPECT_TRUE(large.correction_W.isApprox(Eigen::Isometry3d::Identity(), 1e-9));
 }
 
+/// A straight old leg along x over a long random floor (issue 5's revisit tests): the body
+/// at metre `x` of it and the frame seen there (frame `id` at `id` seconds).
+struct OldLeg {
+  camera::StereoRectifier rect = makeRectifier();
+  camera::RectifiedRig rig = rect.rig();
+  std::mt19937 rng{5};
+  test::SyntheticFloor floor = test::randomFloor(rng, 6000, -3.0, 40.0, 3.0, -4.0);
+  std::normal_distribution<double> pix{0.0, 0.1};
+
+  static Eigen::Isometry3d bodyAt(double x) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation() = Eigen::Vector3d(x, 0, 0);
+    return T;
+  }
+  FrameFeatures frameAt(double x, uint64_t id, std::mt19937& noise) {
+    return test::floorFrame(rig, floor.points_W, floor.descriptors, bodyAt(x), id,
+                            static_cast<int64_t>(id) * 1'000'000'000, pix, noise);
+  }
+};
+
 /// A leg along x over a long floor, one frame per metre, stored as keyframes at the true
 /// poses; then a frame over metre `true_x` of it whose odometry says `estimated_x`, with a
 /// position sigma of `sigma_m` per axis, as after kilometres of drift (issue 5).
 GlobalCorrection revisitAfterLargeDrift(int disc_candidates, double true_x, double estimated_x, double sigma_m) {
-  camera::StereoRectifier rect = makeRectifier();
-  const camera::RectifiedRig rig = rect.rig();
-  std::mt19937 rng(5);
-  const test::SyntheticFloor floor = test::randomFloor(rng, 6000, -3.0, 40.0, 3.0, -4.0);
-  std::normal_distribution<double> pix(0.0, 0.1);
+  OldLeg leg;
+  const camera::RectifiedRig& rig = leg.rig;
+  std::mt19937& rng = leg.rng;
   OdometryParams p = globalParams();
   p.revisit_disc_candidates = disc_candidates;
   GlobalRefiner refiner(rig, globalRefinerParams(p));
-  const auto bodyAt = [](double x) {
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.translation() = Eigen::Vector3d(x, 0, 0);
-    return T;
-  };
+  const auto bodyAt = OldLeg::bodyAt;
   for (int i = 0; i <= 36; ++i) {
-    const FrameFeatures f =
-        test::floorFrame(rig, floor.points_W, floor.descriptors, bodyAt(i), static_cast<uint64_t>(i),
-                         static_cast<int64_t>(i) * 1'000'000'000, pix, rng);
+    const FrameFeatures f = leg.frameAt(i, static_cast<uint64_t>(i), rng);
     std::vector<Eigen::Vector3f> cloud;
     for (const auto& sp : f.stereo.points) cloud.push_back(sp.p_R0);
     refiner.insertKeyframe(static_cast<uint64_t>(i), static_cast<int64_t>(i) * 1'000'000'000,
                            bodyAt(i) * rig.T_B_R0, std::move(cloud), f.stereo, 3e-4, i == 0);
   }
-  const FrameFeatures now = test::floorFrame(rig, floor.points_W, floor.descriptors, bodyAt(true_x), 100, 100'000'000'000,
-                                             pix, rng);
+  const FrameFeatures now = leg.frameAt(true_x, 100, rng);
   std::vector<Eigen::Vector3f> cloud;
   for (const auto& sp : now.stereo.points) cloud.push_back(sp.p_R0);
   Eigen::Matrix<double, 6, 6> cov = Eigen::Matrix<double, 6, 6>::Identity() * 1e-6;
@@ -252,25 +263,17 @@ TEST(GlobalRevisitDisc, AFrameOverGroundNeverMappedIsNotPulledOntoTheKeyframesOf
 TEST(GlobalRevisitDisc, AJumpLargerThanTheCapNeedsASecondWitnessOneFrameOfItIsNotEnough) {
   // GIVEN re-observation keyframes every 6 m of an old leg (so a frame overlaps one of them
   // only) and frames over x = 12 and 12.5 m whose odometry has drifted 8 m ahead, sigma 4 m
-  camera::StereoRectifier rect = makeRectifier();
-  const camera::RectifiedRig rig = rect.rig();
-  std::mt19937 rng(5);
-  const test::SyntheticFloor floor = test::randomFloor(rng, 6000, -3.0, 40.0, 3.0, -4.0);
-  std::normal_distribution<double> pix(0.0, 0.1);
+  OldLeg leg;
+  const camera::RectifiedRig& rig = leg.rig;
+  std::mt19937& rng = leg.rng;
   OdometryParams p = globalParams();
   p.revisit_keyframe_distance_m = 6.0;
-  const auto bodyAt = [](double x) {
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.translation() = Eigen::Vector3d(x, 0, 0);
-    return T;
-  };
+  const auto bodyAt = OldLeg::bodyAt;
   const auto makeRefiner = [&](const OdometryParams& params) {
     GlobalRefiner refiner(rig, globalRefinerParams(params));
     std::mt19937 map_rng(9);
     for (int i = 0; i <= 36; ++i) {
-      const FrameFeatures f = test::floorFrame(rig, floor.points_W, floor.descriptors, bodyAt(i),
-                                               static_cast<uint64_t>(i), static_cast<int64_t>(i) * 1'000'000'000, pix,
-                                               map_rng);
+      const FrameFeatures f = leg.frameAt(i, static_cast<uint64_t>(i), map_rng);
       refiner.insertKeyframe(static_cast<uint64_t>(i), static_cast<int64_t>(i) * 1'000'000'000,
                              bodyAt(i) * rig.T_B_R0, {}, f.stereo, 3e-4, i == 0);
     }
@@ -278,11 +281,7 @@ TEST(GlobalRevisitDisc, AJumpLargerThanTheCapNeedsASecondWitnessOneFrameOfItIsNo
   };
   Eigen::Matrix<double, 6, 6> cov = Eigen::Matrix<double, 6, 6>::Identity() * 1e-6;
   cov.bottomRightCorner<3, 3>() = Eigen::Matrix3d::Identity() * 16.0;
-  const auto frameAt = [&](double true_x, uint64_t id) {
-    return test::floorFrame(rig, floor.points_W, floor.descriptors, bodyAt(true_x), id,
-                            static_cast<int64_t>(id) * 1'000'000'000, pix, rng);
-  };
-  const FrameFeatures first = frameAt(12.0, 100), second = frameAt(12.5, 101);
+  const FrameFeatures first = leg.frameAt(12.0, 100, rng), second = leg.frameAt(12.5, 101, rng);
   const Eigen::Vector3d truth_second = (bodyAt(12.5) * rig.T_B_R0).translation();
   // WHEN the 8 m jump's cap is the drift's 3 sigma alone (the earlier gate: one witness)
   OdometryParams one = p;
