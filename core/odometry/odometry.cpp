@@ -521,11 +521,15 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
         shrinkCovariance(keyframe_->pose_covariance, inline_revisit->covariance_scale,
                          inline_revisit->added_position_variance_m2);
     }
-    if (have_imu)
+    if (have_imu) {
       prediction_innovation_.observe(T_W_B.translation() - map_shift_W - pred.state.T_W_B.translation(), dt_s);
-    else
+      coasting_leak_.fix(T_W_B.translation() - map_shift_W - pred.state.T_W_B.translation(), dt_s, frame.t_ns);
+    } else {
       prediction_innovation_.reset();
+      coasting_leak_.reset();
+    }
     coasting_.stop();
+    coasting_leak_applied_ = false;
     r.source = PoseSource::kVision;
   } else {
     // Vision failed: coast on the IMU, flagged, with the covariance it deserves.
@@ -566,6 +570,23 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
                                         hv->acceleration_covariance, hv->acceleration_error, prev_state_R);
           else
             coasting_.setMeasuredVelocity(hv->covariance, hv->age_s, prev_state_R, f_B);
+        } else if (const std::optional<imu::LeakEstimate> leak =
+                       params_.coasting_leak_correction ? coasting_leak_.estimate(frame.t_ns, params_.coasting_leak)
+                                                        : std::nullopt) {
+          // Issue 5, 1 Hz: no handover fit; the leak the last steady fixes agree on
+          // (core/imu/coasting_leak.hpp). The last fix left the velocity low by the leak x
+          // dt / 2 (its error is the correction's error times that lag); the correction then
+          // acts on every coasted interval below. Fixes that disagree correct nothing and
+          // only widen the covariance by a leak of their size.
+          const Eigen::Vector3d dv = leak->acceleration_W * leak->velocity_lag_s;
+          state_.T_W_B.translation() += dv * dt_s;
+          state_.v_W += dv;
+          const Eigen::Matrix3d velocity_cov =
+              Eigen::Matrix3d::Identity() * std::pow(params_.velocity_sigma_m_s, 2) +
+              leak->velocity_lag_s * leak->velocity_lag_s * leak->covariance;
+          coasting_.setMeasuredMotion(velocity_cov, leak->velocity_lag_s * leak->covariance, leak->covariance,
+                                      leak->acceleration_W, prev_state_R);
+          coasting_leak_applied_ = leak->consistent;
         }
       }
       // The acceleration the IMU missed before the loss, measured by the fit (mostly the
@@ -582,7 +603,14 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     T_W_R0 = T_W_B * T_B_R0;
     r.source = PoseSource::kImuOnly;
     handover_.reset();
-    prediction_innovation_.coast();
+    if (coasting_leak_applied_ && have_imu) {
+      // The corrected coasting leaves the velocity without the fix's lag, so the next
+      // prediction misses by the leak's dt^2 / 2 only, not k times the last fix's miss.
+      prediction_innovation_.coastCorrected(0.5 * coasting_.accelerationCorrection() * dt_s * dt_s, dt_s);
+    } else {
+      prediction_innovation_.coast();
+    }
+    coasting_leak_.coast();
   }
   // While the vehicle still holds still after start-up, every interval refines the gyro bias.
   if (still_start_ && have_imu) {
@@ -609,6 +637,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     r.source = PoseSource::kImuOnly;
     handover_.reset();
     prediction_innovation_.reset();
+    coasting_leak_.reset();
   }
   last_motion_ = prev.T_W_R0.inverse() * T_W_R0;
   last_dt_s_ = dt_s;

@@ -16,6 +16,7 @@
 #include "core/imu/accel_bias_estimator.hpp"
 #include "core/imu/coasting_covariance.hpp"
 #include "core/imu/coasting_handover.hpp"
+#include "core/imu/coasting_leak.hpp"
 #include "core/imu/gravity_bias_observer.hpp"
 #include "core/imu/imu_integrator.hpp"
 #include "core/map/frame_map.hpp"
@@ -130,6 +131,12 @@ struct OdometryParams {
   double coasting_velocity_window_s = 2.0;
   int coasting_velocity_min_fixes = 4;
   int coasting_acceleration_min_fixes = 10;
+  /// Coasting at low frame rates (issue 5, core/imu/coasting_leak.hpp): where the handover fit
+  /// has too few fixes (1 Hz), the acceleration the IMU misses is taken from the innovations of
+  /// the last steady fixes if they agree, and the coasting corrected by it; if they do not,
+  /// only the coasting covariance grows by a leak of their size. Off: the bare prediction.
+  bool coasting_leak_correction = true;
+  imu::LeakParams coasting_leak;
   double max_speed_m_s = 10.0;               ///< a visual fix faster than this is rejected as a jump
   /// Gravity as the tilt reference: after each visual frame the roll and pitch of the chain
   /// (pose, keyframe, previous frame) are turned towards the accelerometer's gravity, less the
@@ -263,6 +270,9 @@ class Odometry {
   Eigen::Matrix<double, 6, 6> coast_start_pose_covariance_ = Eigen::Matrix<double, 6, 6>::Zero();
   /// The visual fixes since vision last returned, for the velocity coasting starts from.
   imu::CoastingHandover handover_;
+  /// The recent fixes' innovations, for coasting where the handover fit does not run.
+  imu::CoastingLeak coasting_leak_;
+  bool coasting_leak_applied_ = false;  ///< this outage's coasting is corrected by coasting_leak_
   /// The IMU prediction's systematic miss, for centring the inter-frame search windows.
   PredictionInnovation prediction_innovation_;
   /// Accelerometer bias and tilt (accel_bias_estimation).

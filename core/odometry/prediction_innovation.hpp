@@ -31,6 +31,13 @@ class PredictionInnovation {
   /// A frame without a visual fix: its state is the bare prediction, miss included, and the
   /// next interval misses once more (measured: twice the single miss after one lost frame).
   void coast() { ++coasted_; }
+  /// A frame without a visual fix whose coasting was corrected for the leak (odometry.cpp,
+  /// core/imu/coasting_leak.hpp): the next interval misses by `miss_W` [m, W] over `dt_s`, once.
+  void coastCorrected(const Eigen::Vector3d& miss_W, double dt_s) {
+    innovation_W_ = miss_W;
+    dt_s_ = dt_s;
+    coasted_ = 0;
+  }
   void reset() { dt_s_ = 0; }
 
   /// The shift [m, W] to add to the next frame's predicted position, whose translation
