@@ -223,6 +223,13 @@ void visit(V& v, odometry::OdometryParams& p) {
     v.value("window_s", p.accel_bias.window_s, 0, 1000);
     v.value("gate_sigmas", p.accel_bias.gate_sigmas, 0.1, 1000);
   });
+  v.section("coasting_leak", [&] {
+    v.flag("enabled", p.coasting_leak_correction);
+    v.value("window_fixes", p.coasting_leak.window_fixes, 1, imu::CoastingLeak::kCapacity);
+    v.value("min_agreeing", p.coasting_leak.min_agreeing, 1, imu::CoastingLeak::kCapacity);
+    v.value("tolerance_fraction", p.coasting_leak.tolerance_fraction, 0, 10);
+    v.value("max_acceleration_m_s2", p.coasting_leak.max_acceleration_m_s2, 0, 100);
+  });
   v.value("heading_bias_error_rad_s", p.heading_bias_error_rad_s, 0, 1);
   v.value("min_revisit_age_s", p.min_revisit_age_s, 0, 1e9);
   v.value("max_map_correction_m", p.max_map_correction_m, 0, 1000);
