@@ -2,8 +2,9 @@
 # One-command sanitizer run (issue 9); .ci/run calls both modes.
 #   scripts/sanitize.sh address   ASan+UBSan build in build-asan, whole ctest suite
 #   scripts/sanitize.sh thread    TSan build in build-tsan of the daemon and LCM test executables
-#                                 (and the seaviod/seavio they run), every test in them
+#                                 (and the seaviod they run), every test in them but one (below)
 # Environment: SEAVIO_JOBS (default 2: the machine is shared), SEAVIO_CTEST_ARGS (extra ctest args),
+#   SEAVIO_UNITY (default ON: unity build, see below),
 #   SEAVIO_SAN_FLAGS (optimisation and debug flags, default "-O1 -g1 -DNDEBUG -Wno-stringop-overflow
 #   -Wno-array-bounds -Wno-maybe-uninitialized":
 #   -O1 is what the sanitizers recommend, cheaper to compile than -O2 -g, file:line still in
@@ -37,7 +38,8 @@ case "$mode" in
     # seaviod/seavio it runs) and the LCM driver tests. All their tests run (rings, workers,
     # scheduling, global thread, faults, end to end); the executables not built here leave a
     # placeholder test <name>_NOT_BUILT in ctest, which is what -E leaves out.
-    targets=(--target test_daemon test_drivers_lcm seaviod seavio)
+    # (The seavio CLI is built for that one left-out test only, so not here: tests/daemon/CMakeLists.txt.)
+    targets=(--target test_daemon test_drivers_lcm seaviod)
     # SeaviodE2E.AravisStereoAndSerialImuGivePosesAsAccurateAsSeavioRun is left out here and
     # only here (it runs in the Release and ASan phases): it is an accuracy test that needs the
     # daemon to keep up with 5 fps stereo, and under TSan seaviod processes ~10 of ~100 frames
@@ -62,8 +64,17 @@ esac
 
 t0=$(date +%s)
 mkdir -p "$build"
-cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=$flags" \
-  -DSEAVIO_SANITIZE="$mode" -DSEAVIO_BUILD_BENCHMARKS=OFF > "$build/configure.log" 2>&1 ||
+# Unity build (SEAVIO_UNITY=OFF for one object per .cpp, e.g. to find which file a report
+# names by object): each target's sources compile as batches of 8 in one translation unit,
+# so OpenCV, Eigen, gtest and spdlog headers are parsed, and their templates instantiated
+# and instrumented, once per batch instead of once per file: docs/reliability.md,
+# "CI phase times". Ninja when installed and the build folder is new (a folder keeps its
+# generator).
+unity=${SEAVIO_UNITY:-ON}
+generator=()
+[[ ! -f "$build/CMakeCache.txt" ]] && command -v ninja > /dev/null && generator=(-G Ninja)
+cmake -S . -B "$build" "${generator[@]}" -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=$flags" \
+  -DCMAKE_UNITY_BUILD="$unity" -DSEAVIO_SANITIZE="$mode" -DSEAVIO_BUILD_BENCHMARKS=OFF > "$build/configure.log" 2>&1 ||
   { cat "$build/configure.log" >&2; exit 1; }
 cmake --build "$build" -j"$jobs" "${targets[@]}" 2>&1 | tail -n 80
 t1=$(date +%s)

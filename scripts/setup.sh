@@ -3,7 +3,7 @@
 # Called by both README commands, so each works as root on a fresh machine.
 set -euo pipefail
 PACKAGES=(
-  build-essential cmake pkg-config git
+  build-essential cmake ninja-build pkg-config git
   libopencv-dev libeigen3-dev libnanoflann-dev
   liblcm-dev liblcm-bin
   libaravis-dev aravis-tools-cli libusb-1.0-0-dev

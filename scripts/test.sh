@@ -4,6 +4,10 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 BUILD=${SEAVIO_BUILD_DIR:-build}
-cmake -S . -B "$BUILD" -DCMAKE_BUILD_TYPE=${SEAVIO_BUILD_TYPE:-Release} ${SEAVIO_CMAKE_ARGS:-}
+# Ninja when installed and the build folder is new (a folder keeps the generator it was made with).
+generator=()
+[[ ! -f "$BUILD/CMakeCache.txt" ]] && command -v ninja > /dev/null && generator=(-G Ninja)
+# shellcheck disable=SC2086
+cmake -S . -B "$BUILD" "${generator[@]}" -DCMAKE_BUILD_TYPE=${SEAVIO_BUILD_TYPE:-Release} ${SEAVIO_CMAKE_ARGS:-}
 cmake --build "$BUILD" -j"$(nproc)"
 ctest --test-dir "$BUILD" --output-on-failure -j"$(nproc)" --timeout 600
