@@ -45,6 +45,15 @@ Eigen::Vector3d weightTilt(const Eigen::Vector3d& residual_B, const Eigen::Matri
   return heading_part + tilt_weight * (residual_B - heading_part);
 }
 
+/// The visual gyro-bias gain for one frame of `dt_s` (OdometryParams::gyro_bias_gain_interval_s):
+/// gyro_bias_gain at its interval, scaled by sqrt(dt_s / interval) at others (the steady-state
+/// Kalman gain with the bias walk per frame growing with dt_s and the residual's noise in rad/s
+/// about rate-independent). At the 10 Hz of the short surveys the factor is exactly 1.
+double gyroBiasGain(const OdometryParams& p, double dt_s) {
+  if (p.gyro_bias_gain_interval_s <= 0 || dt_s <= 0) return p.gyro_bias_gain;
+  return std::min(1.0, p.gyro_bias_gain * std::sqrt(dt_s / p.gyro_bias_gain_interval_s));
+}
+
 /// The mean specific force over an IMU interval, body frame, less the accelerometer bias.
 Eigen::Vector3d meanSpecificForce(std::span<const ImuSample> interval, const Eigen::Vector3d& accel_bias_m_s2) {
   Eigen::Vector3d f_B = Eigen::Vector3d::Zero();
@@ -487,7 +496,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
       const Eigen::Vector3d residual = se3::logSO3(R_ref_curr_gyro.transpose() * *R_ref_curr_vision) / dt_ref_s;
       const Eigen::Vector3d residual_B = weightTilt(T_B_R0.rotation() * residual, state_.T_W_B.rotation(),
                                                     params_.gyro_bias_vision_tilt_weight);
-      state_.gyro_bias_rad_s -= params_.gyro_bias_gain * residual_B;
+      state_.gyro_bias_rad_s -= gyroBiasGain(params_, dt_s) * residual_B;
       gyro_bias_sigma_rad_s_ = std::max(params_.gyro_bias_sigma_at_rest_rad_s, gyro_bias_sigma_rad_s_ * 0.99);
     }
     // Issue 9: this interval for the velocity handed over if vision is lost next (a fit over
@@ -506,7 +515,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     if (on_keyframe) pose_covariance_ = keyframe_->pose_covariance;
     // The reference's rotation error turns this step, and the heading random-walks with the
     // gyro-bias error since the reference (chain_covariance.hpp: the global search's sigma).
-    const double bias_time_constant_s = params_.gyro_bias_gain > 0 ? dt_s / params_.gyro_bias_gain : 0.0;
+    const double bias_time_constant_s = params_.gyro_bias_gain > 0 ? dt_s / gyroBiasGain(params_, dt_s) : 0.0;
     composeChainCovariance(pose_covariance_, rel_cov, T_W_ref.rotation(),
                            T_W_R0.translation() - map_shift_W - T_W_ref.translation(),
                            headingVariance(params_.heading_bias_error_rad_s, bias_time_constant_s, dt_ref_s));
@@ -727,7 +736,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
                          work_.refinement);
         if (alone.ok) {
           const int n = std::max(keyframe_->frames_tracked, 1);
-          const double gain = std::min(1.0, params_.gyro_bias_gain * n);
+          const double gain = std::min(1.0, gyroBiasGain(params_, dt_s) * n);
           const Eigen::Vector3d residual =
               se3::logSO3(R_ref_curr_gyro.transpose() * alone.T_prev_curr.rotation()) / dt_ref_s;
           state_.gyro_bias_rad_s -= gain * weightTilt(T_B_R0.rotation() * residual, state_.T_W_B.rotation(),

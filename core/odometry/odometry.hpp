@@ -97,6 +97,15 @@ struct OdometryParams {
   double velocity_sigma_m_s = 0.05;          ///< after a visual fix [m/s]
   double attitude_sigma_rad = 0.005;         ///< after a visual fix [rad]
   double gyro_bias_gain = 0.01;              ///< fraction of the visual gyro-bias residual applied per frame
+  /// Frame interval at which gyro_bias_gain holds [s]; at other intervals the gain per frame
+  /// scales with sqrt(interval / this). A steady-state Kalman gain for a random-walk bias is
+  /// sqrt(Q / R), Q (the walk over one frame) grows with the interval and R (the visual
+  /// residual in rad/s) was measured about the same at 10 Hz and 1 Hz (0.95e-3 / 1.1e-3 rad/s rms on
+  /// the heading), so 0.01 at 10 Hz is 0.032 at 1 Hz, not 0.01 (a 100 s lag behind the bias
+  /// walk on the 1 Hz survey) nor 0.1 (a 10 s time constant: noisier). 0 = per frame at any rate.
+  /// Off (0) by default: full 1 Hz paper-plain local 0.18 -> 0.14 % mean with 0.1, but
+  /// paper-snow lost twice as many frames to coasting (0.29 -> 1.07 %; docs/architecture.md).
+  double gyro_bias_gain_interval_s = 0.0;
   /// Keyframe tracking: learn the gyro bias once per keyframe, from the frame that ends its
   /// span (the longest gyro/vision baseline, so the least visual noise per rad/s), with the
   /// gain of the frames it served, instead of from every frame's short, noisy span. Saves the
@@ -156,7 +165,7 @@ struct OdometryParams {
   imu::AccelBiasParams accel_bias;
   /// Error (1 sigma) of the heading part of the gyro-bias estimate [rad/s]: the chain's pose
   /// covariance gains heading variance from it, correlated over the estimator's time constant
-  /// (frame interval / gyro_bias_gain), and turns that into position (chain_covariance.hpp).
+  /// (frame interval / the gain per frame), and turns that into position (chain_covariance.hpp).
   /// Sizes the global re-observation search; the trajectory of local mode does not use it.
   double heading_bias_error_rad_s = 1.5e-4;
   double min_revisit_age_s = 30.0;           ///< global mode: map frames at least this old trigger ICP [s]

@@ -206,6 +206,7 @@ void visit(V& v, odometry::OdometryParams& p) {
   v.value("velocity_sigma_m_s", p.velocity_sigma_m_s, 0, 100);
   v.value("attitude_sigma_rad", p.attitude_sigma_rad, 0, 3.2);
   v.value("gyro_bias_gain", p.gyro_bias_gain, 0, 1);
+  v.value("gyro_bias_gain_interval_s", p.gyro_bias_gain_interval_s, 0, 1e3);
   v.flag("gyro_bias_per_keyframe", p.gyro_bias_per_keyframe);
   v.value("gyro_bias_sigma_at_rest_rad_s", p.gyro_bias_sigma_at_rest_rad_s, 0, 1);
   v.value("gyro_bias_sigma_unknown_rad_s", p.gyro_bias_sigma_unknown_rad_s, 0, 1);
