@@ -103,9 +103,10 @@ struct OdometryParams {
   /// residual in rad/s) was measured about the same at 10 Hz and 1 Hz (0.95e-3 / 1.1e-3 rad/s rms on
   /// the heading), so 0.01 at 10 Hz is 0.032 at 1 Hz, not 0.01 (a 100 s lag behind the bias
   /// walk on the 1 Hz survey) nor 0.1 (a 10 s time constant: noisier). 0 = per frame at any rate.
-  /// Off (0) by default: full 1 Hz paper-plain local 0.18 -> 0.14 % mean with 0.1, but
-  /// paper-snow lost twice as many frames to coasting (0.29 -> 1.07 %; docs/architecture.md).
-  double gyro_bias_gain_interval_s = 0.0;
+  /// On (0.1) since 1 Hz coasting uses the leak the fixes agree on (coasting_leak.hpp): full
+  /// 1 Hz paper surveys, global, 0.13 -> 0.07 % plain and 0.21 -> 0.09 % snow mean; before
+  /// that fix snow lost twice as many frames to coasting with it (docs/architecture.md).
+  double gyro_bias_gain_interval_s = 0.1;
   /// Keyframe tracking: learn the gyro bias once per keyframe, from the frame that ends its
   /// span (the longest gyro/vision baseline, so the least visual noise per rad/s), with the
   /// gain of the frames it served, instead of from every frame's short, noisy span. Saves the
