@@ -531,8 +531,10 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
                          inline_revisit->added_position_variance_m2);
     }
     if (have_imu) {
-      prediction_innovation_.observe(T_W_B.translation() - map_shift_W - pred.state.T_W_B.translation(), dt_s);
-      coasting_leak_.fix(T_W_B.translation() - map_shift_W - pred.state.T_W_B.translation(), dt_s, frame.t_ns);
+      // Vision minus prediction, map corrections excluded: both the windows and the leak read it.
+      const Eigen::Vector3d innovation_W = T_W_B.translation() - map_shift_W - pred.state.T_W_B.translation();
+      prediction_innovation_.observe(innovation_W, dt_s);
+      coasting_leak_.fix(innovation_W, dt_s, frame.t_ns);
     } else {
       prediction_innovation_.reset();
       coasting_leak_.reset();
