@@ -377,7 +377,7 @@ void Daemon::estimate(FrameItem& item) {
   health_.features_right = r.quality.features_right;
   health_.ransac_inliers = r.quality.ransac_inliers;
   health_.icp_inliers = r.quality.icp_inliers;
-  if (r.source == PoseSource::kImuOnly) health_.imu_only_frames++;
+  countImuOnly(health_, r);
   health_.frames_processed++;
   PoseItem p{std::move(r), item.recv_ns, t1};
   if (!poses_->pushOrCountOverflow(std::move(p))) health_.poses_dropped++;
@@ -596,7 +596,8 @@ std::string Daemon::summary() const {
     << "  IMU samples " << m.imu_samples << ", overflow " << m.imu_overflow << ", gaps " << m.imu_gaps
     << "; out-of-order " << m.out_of_order << ", duplicates " << m.duplicates << "\n"
     << "  poses published " << health_.poses_published << ", dropped " << health_.poses_dropped
-    << ", IMU-only " << m.imu_only_frames << "\n"
+    << ", IMU-only " << m.imu_only_frames << " (agreed leak " << health_.imu_only_leak_corrected
+    << ", covariance only " << health_.imu_only_covariance_only << ")\n"
     << "  failures: processing " << m.processing_failures << ", publish " << m.publish_failures
     << ", camera source " << health_.camera_source_errors << ", IMU source "
     << health_.imu_source_errors << "\n"

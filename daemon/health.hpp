@@ -7,6 +7,7 @@
 #include <string>
 #include <string_view>
 
+#include "core/common/types.hpp"
 #include "daemon/latency_histogram.hpp"
 
 namespace seavio::daemon {
@@ -49,6 +50,11 @@ struct HealthCounters {
   std::atomic<uint64_t> processing_failures{0};
   std::atomic<uint64_t> publish_failures{0};
   std::atomic<uint64_t> imu_only_frames{0};
+  /// Of the IMU-only frames (issue 5): coasted with the leak the last steady fixes agree on,
+  /// and coasted uncorrected with only the covariance widened because they disagreed
+  /// (OdometryResult::coasting; countImuOnly). Not on LCM: status_t keeps its version.
+  std::atomic<uint64_t> imu_only_leak_corrected{0};
+  std::atomic<uint64_t> imu_only_covariance_only{0};
   std::atomic<uint64_t> camera_source_errors{0};
   std::atomic<uint64_t> imu_source_errors{0};
   // Global step on its own thread (daemon.global_thread). Every request the estimator makes
@@ -74,6 +80,14 @@ struct HealthCounters {
   LatencyHistogram& at(Stage s) { return latency[static_cast<int>(s)]; }
   const LatencyHistogram& at(Stage s) const { return latency[static_cast<int>(s)]; }
 };
+
+/// Counts a published pose that coasted on the IMU, and how its coasting was corrected.
+inline void countImuOnly(HealthCounters& h, const OdometryResult& r) {
+  if (r.source != PoseSource::kImuOnly) return;
+  h.imu_only_frames++;
+  if (r.coasting == CoastingCorrection::kAgreedLeak) h.imu_only_leak_corrected++;
+  if (r.coasting == CoastingCorrection::kCovarianceOnly) h.imu_only_covariance_only++;
+}
 
 /// Faults a driver counts itself below the CameraSource/ImuSource interface (issue 9):
 /// reconnects, unpaired or corrupt frames, protocol errors. Folded into status_t.

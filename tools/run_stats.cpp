@@ -19,6 +19,38 @@ double RunStats::percentile(std::vector<double> v, double p) {
   return v[lo] + (v[hi] - v[lo]) * (idx - static_cast<double>(lo));
 }
 
+const char* coastingName(CoastingCorrection c) {
+  switch (c) {
+    case CoastingCorrection::kNone: return "none";
+    case CoastingCorrection::kBare: return "bare";
+    case CoastingCorrection::kHandoverFit: return "handover_fit";
+    case CoastingCorrection::kAgreedLeak: return "agreed_leak";
+    case CoastingCorrection::kCovarianceOnly: return "covariance_only";
+    case CoastingCorrection::kNoImu: return "no_imu";
+    case CoastingCorrection::kHeld: return "held";
+  }
+  return "unknown";
+}
+
+LossCounts countLosses(const std::vector<OdometryResult>& frames) {
+  LossCounts n;
+  bool in_outage = false;
+  for (const OdometryResult& r : frames) {
+    const bool lost = r.source == PoseSource::kImuOnly;
+    if (lost) {
+      const auto kind = std::min(static_cast<std::size_t>(r.coasting), n.frames_by.size() - 1);
+      ++n.imu_only_frames;
+      ++n.frames_by[kind];
+      if (!in_outage) {
+        ++n.outages;
+        ++n.outages_by[kind];
+      }
+    }
+    in_outage = lost;
+  }
+  return n;
+}
+
 double rssGrowthPer1000Frames(const std::vector<MemorySample>& samples, std::size_t from_frames) {
   double n = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
   for (const MemorySample& m : samples) {
@@ -78,18 +110,27 @@ void RunStats::printTable(std::ostream& os, PaperVariant variant) const {
                       percentile(v, 100), paper);
   }
   std::vector<double> feat, stereo, temporal, inliers;
-  int imu_only = 0;
   for (const auto& f : frames_) {
     feat.push_back(f.quality.features_left);
     stereo.push_back(f.quality.stereo_matches);
     temporal.push_back(f.quality.temporal_matches);
     inliers.push_back(f.quality.ransac_inliers);
-    imu_only += f.source == PoseSource::kImuOnly;
   }
+  const LossCounts losses = countLosses(frames_);
   os << fmt::format("median features {:.0f}, stereo matches {:.0f}, inter-frame matches {:.0f}, RANSAC inliers {:.0f}; "
-                    "IMU-only frames {}\n\n",
+                    "IMU-only frames {}",
                     percentile(feat, 50), percentile(stereo, 50), percentile(temporal, 50), percentile(inliers, 50),
-                    imu_only);
+                    losses.imu_only_frames);
+  if (losses.imu_only_frames > 0) {
+    // Which losses the coasting corrected and how (issue 5): frames (outages) per kind.
+    os << fmt::format(" in {} outages:", losses.outages);
+    for (int k = 1; k < LossCounts::kKinds; ++k) {
+      const auto c = static_cast<CoastingCorrection>(k);
+      if (losses.frames(c) > 0)
+        os << fmt::format(" {} {} ({})", coastingName(c), losses.frames(c), losses.outagesOf(c));
+    }
+  }
+  os << "\n\n";
 }
 
 void RunStats::writeJson(const std::string& path) const {
@@ -104,7 +145,15 @@ void RunStats::writeJson(const std::string& path) const {
                                             percentile(v, 50), percentile(v, 99));
     first = false;
   }
-  os << "\n  },\n  \"memory\": [";
+  const LossCounts losses = countLosses(frames_);
+  os << fmt::format("\n  }},\n  \"losses\": {{\"imu_only_frames\": {}, \"outages\": {}", losses.imu_only_frames,
+                    losses.outages);
+  for (int k = 1; k < LossCounts::kKinds; ++k) {
+    const auto c = static_cast<CoastingCorrection>(k);
+    os << fmt::format(", \"{}\": {{\"frames\": {}, \"outages\": {}}}", coastingName(c), losses.frames(c),
+                      losses.outagesOf(c));
+  }
+  os << "},\n  \"memory\": [";
   for (std::size_t i = 0; i < memory_.size(); ++i)
     os << (i ? "," : "") << fmt::format("\n    {{\"frames\": {}, \"rss_mb\": {:.2f}}}", memory_[i].frames, memory_[i].rss_mb);
   os << fmt::format("\n  ],\n  \"rss_growth_mb_per_1000_frames_second_half\": {:.4f},",
@@ -124,6 +173,8 @@ void RunStats::writeJson(const std::string& path) const {
               f.quality.icp_inliers, f.quality.icp_rms_m, f.quality.model_points, f.quality.detector_threshold,
               f.times.rectify_ms, f.times.features_ms, f.times.stereo_ms, f.times.temporal_ms, f.times.tensor_ms,
               f.times.icp_ms, f.times.total_ms);
+    // What corrected an IMU-only frame's coasting (issue 5; "none" on visual frames).
+    os << fmt::format(", \"coasting\": \"{}\"", coastingName(f.coasting));
     // The position sigma the odometry claims (global mode sizes its revisit search by it).
     os << fmt::format(", \"position_sigma_m\": {:.4f}, \"map_refined\": {}",
                       std::sqrt(std::max(f.covariance.bottomRightCorner<3, 3>().trace(), 0.0)),

@@ -1,5 +1,6 @@
 #pragma once
 /// Per-frame figures of a `seavio run`, summarised as the paper's Table II.
+#include <array>
 #include <ostream>
 #include <string>
 #include <utility>
@@ -14,6 +15,24 @@ struct MemorySample {
   std::size_t frames = 0;  ///< frames processed when sampled
   double rss_mb = 0;       ///< VmRSS [MiB]
 };
+
+/// The stats name of a coasting correction ("none", "bare", "handover_fit", "agreed_leak",
+/// "covariance_only", "no_imu", "held").
+const char* coastingName(CoastingCorrection c);
+
+/// The vision losses of a run (issue 5 observability): IMU-only frames, and outages (runs of
+/// consecutive IMU-only frames), each by what corrected its coasting (an outage by its first
+/// frame's, which the odometry holds for the whole stretch).
+struct LossCounts {
+  static constexpr int kKinds = static_cast<int>(CoastingCorrection::kHeld) + 1;
+  int imu_only_frames = 0;
+  int outages = 0;
+  std::array<int, kKinds> frames_by{};   ///< indexed by CoastingCorrection
+  std::array<int, kKinds> outages_by{};  ///< indexed by CoastingCorrection
+  int frames(CoastingCorrection c) const { return frames_by[static_cast<std::size_t>(c)]; }
+  int outagesOf(CoastingCorrection c) const { return outages_by[static_cast<std::size_t>(c)]; }
+};
+LossCounts countLosses(const std::vector<OdometryResult>& frames);
 
 /// Least-squares slope of resident size over the samples taken at or after `from_frames`
 /// [MiB per 1000 frames]; 0 with fewer than two such samples.
@@ -32,13 +51,16 @@ class RunStats {
     gyro_bias_ = std::move(gyro_rad_s);
     accel_bias_ = std::move(accel_m_s2);
   }
+  /// The run's vision losses so far.
+  LossCounts losses() const { return countLosses(frames_); }
   /// "RSS after 1000 frames ... MiB; growth ..." line(s); nothing without samples.
   void printMemory(std::ostream& os) const;
   /// Which of the paper's Table II columns to print beside ours.
   enum class PaperVariant { kLocal, kGlobal };
   /// Median and p99 per stage, with the paper's figures for `variant` beside ours.
   void printTable(std::ostream& os, PaperVariant variant = PaperVariant::kLocal) const;
-  /// One JSON object per frame plus a summary.
+  /// One JSON object per frame plus a summary and the losses ("losses": IMU-only frames and
+  /// outages by coasting correction; per frame "coasting", coastingName()).
   void writeJson(const std::string& path) const;
   /// Percentile (0..100) of a per-frame quantity.
   static double percentile(std::vector<double> v, double p);

@@ -40,6 +40,19 @@ enum class PoseSource : uint8_t {
   kImuOnly = 2,  ///< vision failed this frame: IMU dead reckoning, flagged
 };
 
+/// What corrected an IMU-only frame's dead reckoning for the acceleration the IMU misses
+/// (issue 5 observability: which losses the leak the fixes agree on corrected, which only
+/// widened the covariance). Chosen at an outage's first frame and held for the whole stretch.
+enum class CoastingCorrection : uint8_t {
+  kNone = 0,            ///< not coasted: a visual (or the first) frame
+  kBare = 1,            ///< the bare IMU prediction: no handover fit and no leak estimate
+  kHandoverFit = 2,     ///< velocity (and acceleration) fitted over the last fixes (10 Hz, issue 9)
+  kAgreedLeak = 3,      ///< the leak the last steady fixes agree on (core/imu/coasting_leak.hpp, 1 Hz)
+  kCovarianceOnly = 4,  ///< the fixes disagreed: no correction, only the covariance widened
+  kNoImu = 5,           ///< no IMU: the constant-velocity prediction
+  kHeld = 6,            ///< the estimate was not finite: the last finite pose held
+};
+
 /// Per-stage wall time of one frame [ms] (the paper's Table II columns and more).
 struct StageTimes {
   double rectify_ms = 0;
@@ -77,6 +90,8 @@ struct OdometryResult {
   /// Pose covariance, tangent order (rotation [rad], translation [m]) in W.
   Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Identity();
   PoseSource source = PoseSource::kInit;
+  /// kImuOnly frames: how the coasting was corrected; kNone otherwise.
+  CoastingCorrection coasting = CoastingCorrection::kNone;
   Quality quality;
   StageTimes times;
 };

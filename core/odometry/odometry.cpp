@@ -557,6 +557,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
       // summing per-frame covariances would drop the velocity, tilt and bias correlations
       // that make dead-reckoning error grow with the square of time.
       if (!coasting_.active()) {
+        coasting_correction_ = CoastingCorrection::kBare;
         coast_start_pose_covariance_ = pose_covariance_;
         coasting_.start({params_.attitude_sigma_rad, params_.velocity_sigma_m_s, gyro_bias_sigma_rad_s_,
                          params_.accel_bias_sigma_m_s2});
@@ -570,6 +571,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
                                       params_.coasting_acceleration_min_fixes})
                 : std::nullopt;
         if (hv) {
+          coasting_correction_ = CoastingCorrection::kHandoverFit;
           const Eigen::Vector3d dv = hv->v_W - prev_state_v;
           state_.T_W_B.translation() += dv * dt_s;
           state_.v_W += dv;
@@ -598,6 +600,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
           coasting_.setMeasuredMotion(velocity_cov, leak->velocity_lag_s * leak->covariance, leak->covariance,
                                       leak->acceleration_W, prev_state_R);
           coasting_leak_applied_ = leak->consistent;
+          coasting_correction_ =
+              leak->consistent ? CoastingCorrection::kAgreedLeak : CoastingCorrection::kCovarianceOnly;
         }
       }
       // The acceleration the IMU missed before the loss, measured by the fit (mostly the
@@ -613,6 +617,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     T_W_B = state_.T_W_B;
     T_W_R0 = T_W_B * T_B_R0;
     r.source = PoseSource::kImuOnly;
+    r.coasting = have_imu ? coasting_correction_ : CoastingCorrection::kNoImu;
     handover_.reset();
     if (coasting_leak_applied_ && have_imu) {
       // The corrected coasting leaves the velocity without the fix's lag, so the next
@@ -646,6 +651,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     state_.v_W.setZero();
     T_W_R0 = prev.T_W_R0;
     r.source = PoseSource::kImuOnly;
+    r.coasting = CoastingCorrection::kHeld;
     handover_.reset();
     prediction_innovation_.reset();
     coasting_leak_.reset();

@@ -283,6 +283,8 @@ class Odometry {
   /// The recent fixes' innovations, for coasting where the handover fit does not run.
   imu::CoastingLeak coasting_leak_;
   bool coasting_leak_applied_ = false;  ///< this outage's coasting is corrected by coasting_leak_
+  /// What corrects this outage's coasting (OdometryResult::coasting), set at its first frame.
+  CoastingCorrection coasting_correction_ = CoastingCorrection::kBare;
   /// The IMU prediction's systematic miss, for centring the inter-frame search windows.
   PredictionInnovation prediction_innovation_;
   /// Accelerometer bias and tilt (accel_bias_estimation).
