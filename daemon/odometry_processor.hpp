@@ -45,7 +45,7 @@ class OdometryProcessor : public FrameProcessor {
   OdometryResult process(const StereoFrame& frame, std::span<const ImuSample> imu) override {
     if (!pool_) return odo_.process(frame, imu);
     // Into the buffers of an earlier frame, which track() hands back (issue 8).
-    extractParallel(frame, spare_);
+    extractParallel(frame, imu, spare_);
     return odo_.track(std::move(spare_), imu);
   }
   std::string name() const override { return "stereo-odometry"; }
@@ -71,7 +71,7 @@ class OdometryProcessor : public FrameProcessor {
   }
 
  private:
-  void extractParallel(const StereoFrame& frame, odometry::FrameFeatures& f) {
+  void extractParallel(const StereoFrame& frame, std::span<const ImuSample> imu, odometry::FrameFeatures& f) {
     const odometry::Frontend& frontend = odo_.frontend();
     f.times = StageTimes{};
     f.t_ns = frame.t_ns;
@@ -82,15 +82,16 @@ class OdometryProcessor : public FrameProcessor {
     // SURF buffers in ws_, so the right image is rectified and described on the worker while
     // the left one is on this thread (rectify_ms is then the left image's).
     const double threshold = f.detector_threshold;
+    const float steer_deg = odo_.descriptorSteeringDeg(frame.t_ns, imu);
     // The right image's job reads its inputs from here (set once per frame: posting it
     // allocates nothing, issue 8).
-    right_ = RightInput{&frame, threshold, &f.right};
+    right_ = RightInput{&frame, threshold, steer_deg, &f.right};
     const bool posted = pool_->post(right_job_);
     try {
       frontend.rectifySide(0, frame, ws_);
       if (!posted) frontend.rectifySide(1, frame, ws_);
       f.times.rectify_ms = timer.lap_ms();
-      frontend.detect(ws_.left_rect, threshold, ws_.surf_left, f.left);
+      frontend.detect(ws_.left_rect, threshold, ws_.surf_left, f.left, steer_deg);
     } catch (...) {
       // The job refers to `f` and the images: it must finish before they go out of scope.
       if (posted) {
@@ -105,7 +106,7 @@ class OdometryProcessor : public FrameProcessor {
       right_job_.wait();  // rethrows the worker's exception, if any
       ++parallel_frames_;
     } else {
-      frontend.detect(ws_.right_rect, threshold, ws_.surf_right, f.right);
+      frontend.detect(ws_.right_rect, threshold, ws_.surf_right, f.right, steer_deg);
     }
     f.times.features_ms = timer.lap_ms();
     frontend.matchStereo(f.left, f.right, ws_, f.stereo);
@@ -116,6 +117,7 @@ class OdometryProcessor : public FrameProcessor {
   struct RightInput {
     const StereoFrame* frame = nullptr;
     double threshold = 0;
+    float steer_deg = 0.f;
     features::Features* out = nullptr;
   };
 
@@ -125,7 +127,7 @@ class OdometryProcessor : public FrameProcessor {
   /// first) never outlives it. Captures only `this`: the processor is not movable.
   RecurringJob right_job_{[this] {
     odo_.frontend().rectifySide(1, *right_.frame, ws_);
-    odo_.frontend().detect(ws_.right_rect, right_.threshold, ws_.surf_right, *right_.out);
+    odo_.frontend().detect(ws_.right_rect, right_.threshold, ws_.surf_right, *right_.out, right_.steer_deg);
   }};
   std::unique_ptr<WorkerPool> pool_;  ///< one persistent worker; null when sequential
   odometry::FrontendWorkspace ws_;    ///< rectified images and filter buffers, reused across frames

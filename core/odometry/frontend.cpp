@@ -362,8 +362,8 @@ features::Features Frontend::detect(const cv::Mat& rectified, double threshold, 
 }
 
 void Frontend::detect(const cv::Mat& rectified, double threshold, features::SurfWorkspace& surf,
-                      features::Features& out) const {
-  extractor_.extract(rectified, threshold, surf, out);
+                      features::Features& out, float upright_angle_deg) const {
+  extractor_.extract(rectified, threshold, surf, out, upright_angle_deg);
 }
 
 matching::StereoFeatures Frontend::matchStereo(const features::Features& left, const features::Features& right) const {
@@ -395,7 +395,7 @@ void Frontend::matchStereo(const features::Features& left, const features::Featu
 }
 
 void Frontend::process(const StereoFrame& frame, double threshold, const NowNsFn& now, FrontendWorkspace& ws,
-                       FrameFeatures& f) const {
+                       FrameFeatures& f, float upright_angle_deg) const {
   f.t_ns = frame.t_ns;
   f.seq = frame.seq;
   f.detector_threshold = threshold;
@@ -403,8 +403,8 @@ void Frontend::process(const StereoFrame& frame, double threshold, const NowNsFn
   StageTimer timer(now);
   rectify(frame, ws);
   f.times.rectify_ms = timer.lap_ms();
-  detect(ws.left_rect, threshold, ws.surf_left, f.left);
-  detect(ws.right_rect, threshold, ws.surf_right, f.right);
+  detect(ws.left_rect, threshold, ws.surf_left, f.left, upright_angle_deg);
+  detect(ws.right_rect, threshold, ws.surf_right, f.right, upright_angle_deg);
   f.times.features_ms = timer.lap_ms();
   matchStereo(f.left, f.right, ws, f.stereo);
   f.times.stereo_ms = timer.lap_ms();

@@ -149,8 +149,9 @@ class Frontend {
   /// The same with SURF's buffers in `surf` (one per thread calling at once).
   features::Features detect(const cv::Mat& rectified, double threshold, features::SurfWorkspace& surf) const;
   /// The same into `out`, reusing its keypoint and descriptor buffers (issue 8).
+  /// `upright_angle_deg`: upright SURF's steering angle (Odometry::descriptorSteeringDeg).
   void detect(const cv::Mat& rectified, double threshold, features::SurfWorkspace& surf,
-              features::Features& out) const;
+              features::Features& out, float upright_angle_deg = 0.f) const;
   /// Stereo matching + triangulation of already detected features.
   matching::StereoFeatures matchStereo(const features::Features& left, const features::Features& right) const;
   /// The same into `out`, reusing its buffers (points, descriptor rows) and `ws`'s scratch.
@@ -161,7 +162,7 @@ class Frontend {
   /// The same into `out` with the buffers of `ws` and `out` (give back a FrameFeatures of an
   /// earlier frame to reuse its allocations): identical results.
   void process(const StereoFrame& frame, double threshold, const NowNsFn& now, FrontendWorkspace& ws,
-               FrameFeatures& out) const;
+               FrameFeatures& out, float upright_angle_deg = 0.f) const;
 
  private:
   camera::StereoRectifier rectifier_;

@@ -74,6 +74,12 @@ struct OdometryParams {
   icp::IcpParams icp;
   map::FrameMapParams map;
   bool use_rotation_prior = true;            ///< refine with the gyro rotation as a prior
+  /// With upright SURF (features.surf.upright): describe every keypoint along the direction of
+  /// the world's x axis in the image, the heading the gyro predicts for the frame, instead of
+  /// along the image axes. A down-looking camera turns with the vehicle about its optical
+  /// axis; steered, its descriptors match through any rate of turn, without the per-keypoint
+  /// orientation whose noise costs upright-invariant SURF matches (docs/features.md).
+  bool steer_upright_descriptors = true;
   MotionRefinementParams refinement;
   int min_inliers = 15;                      ///< fewer RANSAC inliers = vision failed this frame
   /// Second chance for a frame that failed: wide-baseline matches (1 Hz frames, 1.5 m apart,
@@ -230,6 +236,11 @@ class Odometry {
 
   const Frontend& frontend() const { return frontend_; }
   double detectorThreshold() const { return controller_.threshold(); }
+  /// The steering angle for upright SURF of the frame at `t_ns` (degrees, clockwise in the
+  /// rectified image): the direction of W's x axis there, from the last pose turned by the
+  /// gyro samples up to `t_ns` (those kept and the new `imu`). 0 unless upright and steering
+  /// are configured; before the first frame the attitude is the initial one (yaw 0).
+  float descriptorSteeringDeg(int64_t t_ns, std::span<const ImuSample> imu) const;
   /// The inline global step's map (empty in deferred mode: the refiner elsewhere holds it).
   const map::FrameMap& frameMap() const { return refiner_.frameMap(); }
   const NavState& state() const { return state_; }

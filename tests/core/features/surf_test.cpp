@@ -211,6 +211,61 @@ TEST(Surf, OrientationFollowsAnArbitraryRotation) {
   EXPECT_LT(median(dist), 0.12f);
 }
 
+TEST(Surf, SteeredUprightDescriptorsFollowTheGivenAngle) {
+  // GIVEN a texture rotated by 30 degrees about its centre, as a down-looking camera sees the
+  // floor after the vehicle turned by 30 degrees
+  const cv::Mat a = makeTexture(400, 400, 6);
+  const cv::Mat rot = cv::getRotationMatrix2D(cv::Point2f(199.5f, 199.5f), -30.0, 1.0);
+  cv::Mat b;
+  cv::warpAffine(a, b, rot, a.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
+  const auto map = [&](cv::Point2f p) {
+    return cv::Point2f(static_cast<float>(rot.at<double>(0, 0) * p.x + rot.at<double>(0, 1) * p.y + rot.at<double>(0, 2)),
+                       static_cast<float>(rot.at<double>(1, 0) * p.x + rot.at<double>(1, 1) * p.y + rot.at<double>(1, 2)));
+  };
+  // WHEN both are described by rotation-invariant SURF, by upright SURF, and by upright SURF
+  // steered by the known turn (the odometry's gyro-predicted heading)
+  const auto medianDistance = [&](bool upright, float steer_a, float steer_b, bool expect_steered_angles) {
+    SurfParams p;
+    p.upright = upright;
+    p.max_features = 300;
+    const Surf surf(p);
+    SurfWorkspace ws;
+    std::vector<cv::KeyPoint> ka, kb;
+    cv::Mat da, db;
+    surf.detectAndCompute(a, 100, ka, da, ws, steer_a);
+    surf.detectAndCompute(b, 100, kb, db, ws, steer_b);
+    std::vector<cv::KeyPoint> inner;  // away from the reflected border
+    std::vector<int> inner_idx;
+    for (int i = 0; i < static_cast<int>(ka.size()); ++i) {
+      if (cv::norm(ka[i].pt - cv::Point2f(199.5f, 199.5f)) < 150) {
+        inner.push_back(ka[i]);
+        inner_idx.push_back(i);
+      }
+    }
+    const auto pairs = correspond(inner, kb, map, 1.5f);
+    EXPECT_GT(pairs.size(), 60u);
+    std::vector<float> dist;
+    for (const Pair& q : pairs) {
+      dist.push_back(static_cast<float>(cv::norm(da.row(inner_idx[q.a]) - db.row(q.b))));
+      if (expect_steered_angles) {
+        EXPECT_EQ(ka[inner_idx[q.a]].angle, steer_a);
+        EXPECT_EQ(kb[q.b].angle, steer_b);
+      }
+    }
+    return dist.empty() ? 1.f : median(dist);
+  };
+  const float invariant = medianDistance(false, 0.f, 0.f, false);
+  const float upright = medianDistance(true, 0.f, 0.f, true);
+  const float steered = medianDistance(true, 10.f, 40.f, true);
+  std::printf("30 deg turn, median descriptor distance: invariant %.3f, upright %.3f, steered %.3f\n", invariant,
+              upright, steered);
+  // THEN the steered descriptors stay as close as the rotation-invariant ones or closer (no
+  // orientation noise), while unsteered upright ones are lost in the turn
+  EXPECT_LT(steered, invariant);
+  EXPECT_LT(steered, 0.12f);
+  EXPECT_GT(upright, 2.f * steered);
+}
+
 TEST(Surf, BadOrTinyInputNeverCrashes) {
   const Surf surf(SurfParams{});
   std::vector<cv::KeyPoint> kps;
