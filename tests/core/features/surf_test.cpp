@@ -166,32 +166,46 @@ TEST(Surf, RotationInvariantDescriptorUnlessUpright) {
   }
 }
 
-TEST(Surf, OrientationFollowsAnArbitraryRotation) {
-  // GIVEN a texture rotated by 30 degrees about its centre
-  const cv::Mat a = makeTexture(400, 400, 6);
-  const cv::Mat rot = cv::getRotationMatrix2D(cv::Point2f(199.5f, 199.5f), -30.0, 1.0);
-  cv::Mat b;
-  cv::warpAffine(a, b, rot, a.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
-  const auto map = [&](cv::Point2f p) {
+/// A 400 x 400 texture and its copy turned by 30 degrees clockwise about the centre (as a
+/// down-looking camera sees the floor after a 30 degree turn), with the point map between them.
+struct TurnedTexture {
+  cv::Mat a, b, rot;
+  cv::Point2f map(cv::Point2f p) const {
     return cv::Point2f(static_cast<float>(rot.at<double>(0, 0) * p.x + rot.at<double>(0, 1) * p.y + rot.at<double>(0, 2)),
                        static_cast<float>(rot.at<double>(1, 0) * p.x + rot.at<double>(1, 1) * p.y + rot.at<double>(1, 2)));
-  };
+  }
+};
+
+TurnedTexture turnedTexture() {
+  TurnedTexture t;
+  t.a = makeTexture(400, 400, 6);
+  t.rot = cv::getRotationMatrix2D(cv::Point2f(199.5f, 199.5f), -30.0, 1.0);
+  cv::warpAffine(t.a, t.b, t.rot, t.a.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
+  return t;
+}
+
+/// Indices of the keypoints within 150 px of the centre (away from the reflected border).
+std::vector<int> innerIndices(const std::vector<cv::KeyPoint>& kp) {
+  std::vector<int> idx;
+  for (int i = 0; i < static_cast<int>(kp.size()); ++i)
+    if (cv::norm(kp[i].pt - cv::Point2f(199.5f, 199.5f)) < 150) idx.push_back(i);
+  return idx;
+}
+
+TEST(Surf, OrientationFollowsAnArbitraryRotation) {
+  // GIVEN a texture rotated by 30 degrees about its centre
+  const TurnedTexture t = turnedTexture();
   SurfParams p;
   p.max_features = 300;
   const Surf surf(p);
   std::vector<cv::KeyPoint> ka, kb;
   cv::Mat da, db;
-  surf.detectAndCompute(a, 100, ka, da);
-  surf.detectAndCompute(b, 100, kb, db);
-  std::vector<cv::KeyPoint> inner;  // away from the reflected border
-  std::vector<int> inner_idx;
-  for (int i = 0; i < static_cast<int>(ka.size()); ++i) {
-    if (cv::norm(ka[i].pt - cv::Point2f(199.5f, 199.5f)) < 150) {
-      inner.push_back(ka[i]);
-      inner_idx.push_back(i);
-    }
-  }
-  const auto pairs = correspond(inner, kb, map, 1.5f);
+  surf.detectAndCompute(t.a, 100, ka, da);
+  surf.detectAndCompute(t.b, 100, kb, db);
+  const std::vector<int> inner_idx = innerIndices(ka);
+  std::vector<cv::KeyPoint> inner;
+  for (int i : inner_idx) inner.push_back(ka[i]);
+  const auto pairs = correspond(inner, kb, [&](cv::Point2f q) { return t.map(q); }, 1.5f);
   ASSERT_GT(pairs.size(), 60u);
   std::vector<float> dist, dangle;
   for (const Pair& q : pairs) {
@@ -214,14 +228,7 @@ TEST(Surf, OrientationFollowsAnArbitraryRotation) {
 TEST(Surf, SteeredUprightDescriptorsFollowTheGivenAngle) {
   // GIVEN a texture rotated by 30 degrees about its centre, as a down-looking camera sees the
   // floor after the vehicle turned by 30 degrees
-  const cv::Mat a = makeTexture(400, 400, 6);
-  const cv::Mat rot = cv::getRotationMatrix2D(cv::Point2f(199.5f, 199.5f), -30.0, 1.0);
-  cv::Mat b;
-  cv::warpAffine(a, b, rot, a.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
-  const auto map = [&](cv::Point2f p) {
-    return cv::Point2f(static_cast<float>(rot.at<double>(0, 0) * p.x + rot.at<double>(0, 1) * p.y + rot.at<double>(0, 2)),
-                       static_cast<float>(rot.at<double>(1, 0) * p.x + rot.at<double>(1, 1) * p.y + rot.at<double>(1, 2)));
-  };
+  const TurnedTexture t = turnedTexture();
   // WHEN both are described by rotation-invariant SURF, by upright SURF, and by upright SURF
   // steered by the known turn (the odometry's gyro-predicted heading)
   const auto medianDistance = [&](bool upright, float steer_a, float steer_b, bool expect_steered_angles) {
@@ -232,17 +239,12 @@ TEST(Surf, SteeredUprightDescriptorsFollowTheGivenAngle) {
     SurfWorkspace ws;
     std::vector<cv::KeyPoint> ka, kb;
     cv::Mat da, db;
-    surf.detectAndCompute(a, 100, ka, da, ws, steer_a);
-    surf.detectAndCompute(b, 100, kb, db, ws, steer_b);
-    std::vector<cv::KeyPoint> inner;  // away from the reflected border
-    std::vector<int> inner_idx;
-    for (int i = 0; i < static_cast<int>(ka.size()); ++i) {
-      if (cv::norm(ka[i].pt - cv::Point2f(199.5f, 199.5f)) < 150) {
-        inner.push_back(ka[i]);
-        inner_idx.push_back(i);
-      }
-    }
-    const auto pairs = correspond(inner, kb, map, 1.5f);
+    surf.detectAndCompute(t.a, 100, ka, da, ws, steer_a);
+    surf.detectAndCompute(t.b, 100, kb, db, ws, steer_b);
+    const std::vector<int> inner_idx = innerIndices(ka);
+    std::vector<cv::KeyPoint> inner;
+    for (int i : inner_idx) inner.push_back(ka[i]);
+    const auto pairs = correspond(inner, kb, [&](cv::Point2f q) { return t.map(q); }, 1.5f);
     EXPECT_GT(pairs.size(), 60u);
     std::vector<float> dist;
     for (const Pair& q : pairs) {
