@@ -78,7 +78,7 @@ struct OdometryParams {
   /// the world's x axis in the image, the heading the gyro predicts for the frame, instead of
   /// along the image axes. A down-looking camera turns with the vehicle about its optical
   /// axis; steered, its descriptors match through any rate of turn, without the per-keypoint
-  /// orientation whose noise costs upright-invariant SURF matches (docs/features.md).
+  /// orientation whose noise costs rotation-invariant SURF matches (docs/features.md).
   bool steer_upright_descriptors = true;
   MotionRefinementParams refinement;
   int min_inliers = 15;                      ///< fewer RANSAC inliers = vision failed this frame
