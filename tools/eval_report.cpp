@@ -38,6 +38,9 @@ void printMetrics(std::ostream& os, const eval::TrajectoryMetrics& m) {
   std::snprintf(buf, sizeof(buf), "  %12.2f %10.3f %9.3f %9.3f %11.3f %10.2f %11.2f\n", m.distance_m, m.mean_error_m,
                 m.std_error_m, m.max_error_m, m.final_error_m, m.mean_error_pct, m.final_error_pct);
   os << buf;
+  os << "  horizontal / vertical mean " << fmt("%.3f", m.mean_horizontal_error_m) << " / "
+     << fmt("%.3f", m.mean_vertical_error_m) << " m; heading error mean " << fmt("%.2f", m.mean_heading_error_deg)
+     << " deg, max " << fmt("%.2f", m.max_heading_error_deg) << " deg\n";
   os << "\nATE RMSE after SE(3) Umeyama alignment: " << fmt("%.3f", m.ate_rmse_m) << " m\n";
   if (m.rpe_segments > 0)
     os << "RPE per 10 m (" << m.rpe_segments << " segments): translation " << fmt("%.2f", m.rpe_trans_pct)
@@ -58,7 +61,9 @@ void writeMetricsJson(const std::string& path, const eval::TrajectoryMetrics& m)
       {"distance_m", m.distance_m},         {"mean_error_m", m.mean_error_m},
       {"std_error_m", m.std_error_m},       {"max_error_m", m.max_error_m},
       {"final_error_m", m.final_error_m},   {"mean_error_pct", m.mean_error_pct},
-      {"final_error_pct", m.final_error_pct}, {"ate_rmse_m", m.ate_rmse_m},
+      {"final_error_pct", m.final_error_pct}, {"mean_horizontal_error_m", m.mean_horizontal_error_m},
+      {"mean_vertical_error_m", m.mean_vertical_error_m}, {"mean_heading_error_deg", m.mean_heading_error_deg},
+      {"max_heading_error_deg", m.max_heading_error_deg}, {"ate_rmse_m", m.ate_rmse_m},
       {"rpe_trans_pct", m.rpe_trans_pct},   {"rpe_rot_deg_per_m", m.rpe_rot_deg_per_m}};
   for (const auto& [k, v] : scalars) out << "  \"" << k << "\": " << num(v) << ",\n";
   out << "  \"rpe_segments\": " << m.rpe_segments << ",\n";
@@ -71,7 +76,8 @@ void writeMetricsJson(const std::string& path, const eval::TrajectoryMetrics& m)
   for (std::size_t i = 0; i < t_s.size(); ++i) t_s[i] = 1e-9 * double(m.t_ns[i]);
   arr("t_s", t_s, false);
   arr("distance_along_m", m.distance_along_m, false);
-  arr("error_m", m.error_m, true);
+  arr("error_m", m.error_m, false);
+  arr("heading_error_deg", m.heading_error_deg, true);
   out << "}\n";
   if (!out) throw std::runtime_error(path + ": write error");
 }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 #include <Eigen/SVD>
 
@@ -114,13 +115,26 @@ TrajectoryMetrics evaluateTrajectory(const std::vector<TimedPose>& gt, const std
   // Paper Table I: align on the first pose only, so the error is the drift accumulated
   // from the start.
   const Eigen::Isometry3d T_align = G[0] * E[0].inverse();
-  double sum = 0, sum2 = 0, dist = 0;
+  double sum = 0, sum2 = 0, dist = 0, sum_h = 0, sum_v = 0, sum_yaw = 0;
   for (std::size_t i = 0; i < n; ++i) {
     if (i > 0) dist += (G[i].translation() - G[i - 1].translation()).norm();
-    const Eigen::Vector3d e = (T_align * E[i]).translation();
-    const double err = (e - G[i].translation()).norm();
+    const Eigen::Isometry3d aligned = T_align * E[i];
+    const Eigen::Vector3d e = aligned.translation();
+    const Eigen::Vector3d d = e - G[i].translation();
+    const double err = d.norm();
+    // Turn of R_err = R_est * R_gt^T about W's z: the angle of its action on the horizontal
+    // plane (atan2 of the antisymmetric over the symmetric part), exact for a pure heading
+    // error and unaffected to first order by roll and pitch errors.
+    const Eigen::Matrix3d R_err = aligned.linear() * G[i].linear().transpose();
+    const double yaw_deg =
+        std::atan2(R_err(1, 0) - R_err(0, 1), R_err(0, 0) + R_err(1, 1)) * 180.0 / std::numbers::pi;
     m.distance_along_m.push_back(dist);
     m.error_m.push_back(err);
+    m.heading_error_deg.push_back(yaw_deg);
+    sum_h += d.head<2>().norm();
+    sum_v += std::abs(d.z());
+    sum_yaw += std::abs(yaw_deg);
+    m.max_heading_error_deg = std::max(m.max_heading_error_deg, std::abs(yaw_deg));
     m.gt_position.push_back(G[i].translation());
     m.est_first_aligned.push_back(e);
     sum += err;
@@ -128,6 +142,9 @@ TrajectoryMetrics evaluateTrajectory(const std::vector<TimedPose>& gt, const std
     m.max_error_m = std::max(m.max_error_m, err);
   }
   m.mean_error_m = sum / double(n);
+  m.mean_horizontal_error_m = sum_h / double(n);
+  m.mean_vertical_error_m = sum_v / double(n);
+  m.mean_heading_error_deg = sum_yaw / double(n);
   m.std_error_m = std::sqrt(std::max(0.0, sum2 / double(n) - m.mean_error_m * m.mean_error_m));
   m.final_error_m = m.error_m.back();
   m.distance_m = dist;

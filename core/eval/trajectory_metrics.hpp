@@ -46,6 +46,14 @@ struct TrajectoryMetrics {
   double distance_m = 0;            ///< ground-truth path length over the associated poses
   double mean_error_pct = 0;        ///< mean_error_m / distance_m * 100
   double final_error_pct = 0;       ///< final_error_m / distance_m * 100
+  /// The same error split along W's z axis (up; W is gravity-aligned, as in EuRoC, TUM and
+  /// the simulator): a depth sensor would take the vertical part away, heading errors show in
+  /// the horizontal part as cross-track error growing along each leg.
+  double mean_horizontal_error_m = 0;
+  double mean_vertical_error_m = 0;  ///< mean of |z error|
+  /// Heading error: the first-pose-aligned attitude error's turn about W's z [deg].
+  double mean_heading_error_deg = 0;  ///< mean of |heading error|
+  double max_heading_error_deg = 0;   ///< largest |heading error|
 
   double ate_rmse_m = 0;            ///< after SE(3) Umeyama alignment (no scale)
   double rpe_trans_pct = 0;         ///< mean translational error per segment, % of segment length
@@ -56,6 +64,7 @@ struct TrajectoryMetrics {
   std::vector<int64_t> t_ns;
   std::vector<double> distance_along_m;            ///< ground-truth distance travelled so far
   std::vector<double> error_m;                     ///< first-pose-aligned position error
+  std::vector<double> heading_error_deg;           ///< signed, estimate minus truth, about W's z
   std::vector<Eigen::Vector3d> gt_position;        ///< associated ground truth in W
   std::vector<Eigen::Vector3d> est_first_aligned;  ///< estimate after first-pose alignment
   std::vector<Eigen::Vector3d> est_umeyama_aligned;///< estimate after Umeyama alignment

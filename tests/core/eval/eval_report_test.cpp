@@ -63,7 +63,9 @@ TEST(EvalReport, JsonHoldsFiguresAndArrays) {
   char buf[64];
   std::snprintf(buf, sizeof(buf), "\"max_error_m\": %.9g", m.max_error_m);
   EXPECT_NE(s.find(buf), std::string::npos);
-  EXPECT_EQ(std::count(s.begin(), s.end(), '['), 3);
+  std::snprintf(buf, sizeof(buf), "\"mean_vertical_error_m\": %.9g", m.mean_vertical_error_m);
+  EXPECT_NE(s.find(buf), std::string::npos);
+  EXPECT_EQ(std::count(s.begin(), s.end(), '['), 4);
   EXPECT_THROW(writeMetricsJson("/nonexistent_dir/m.json", m), std::runtime_error);
 }
 

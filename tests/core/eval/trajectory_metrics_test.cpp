@@ -74,6 +74,45 @@ TEST(TrajectoryMetrics, RotationDriftGivesDegreesPerMetre) {
   EXPECT_NEAR(m.rpe_rot_deg_per_m, 0.01 * 180.0 / M_PI, 1e-6);
 }
 
+TEST(TrajectoryMetrics, SplitsTheErrorIntoHorizontalVerticalAndHeading) {
+  // GIVEN an estimate that sinks 2 cm per metre (a pitch drift), whose heading turns 0.01 rad
+  // per metre and whose roll drifts 0.02 rad per metre, over 10 m along x.
+  const auto gt = line(10.0);
+  auto est = gt;
+  for (auto& p : est) {
+    const double x = p.T_W_B.translation().x();
+    p.T_W_B.translation().z() = -0.02 * x;
+    p.T_W_B.linear() = (Eigen::AngleAxisd(0.01 * x, Eigen::Vector3d::UnitZ()) *
+                        Eigen::AngleAxisd(0.02 * x, Eigen::Vector3d::UnitX()))
+                           .toRotationMatrix();
+  }
+  const TrajectoryMetrics m = evaluateTrajectory(gt, est);
+  ASSERT_EQ(m.heading_error_deg.size(), 101u);
+  // THEN the error is all vertical: 0.02 x averaged over x = 0..10.
+  EXPECT_NEAR(m.mean_vertical_error_m, 0.1, 1e-9);
+  EXPECT_NEAR(m.mean_horizontal_error_m, 0.0, 1e-9);
+  EXPECT_NEAR(m.mean_error_m, 0.1, 1e-9);
+  // AND the heading error is the turn about z alone, signed, the roll drift left out.
+  EXPECT_NEAR(m.heading_error_deg[100], 0.1 * 180.0 / M_PI, 1e-9);
+  EXPECT_NEAR(m.max_heading_error_deg, 0.1 * 180.0 / M_PI, 1e-9);
+  EXPECT_NEAR(m.mean_heading_error_deg, 0.05 * 180.0 / M_PI, 1e-9);
+
+  // GIVEN a cross-track drift of 3 cm per metre, heading exact, seen from a world frame
+  // turned by 0.2 rad about z.
+  Eigen::Isometry3d T_other = Eigen::Isometry3d::Identity();
+  T_other.linear() = Eigen::AngleAxisd(-0.2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  auto side = gt;
+  for (auto& p : side) {
+    p.T_W_B.translation().y() = -0.03 * p.T_W_B.translation().x();
+    p.T_W_B = T_other * p.T_W_B;
+  }
+  const TrajectoryMetrics h = evaluateTrajectory(gt, side);
+  // THEN the first-pose alignment takes the frame's turn away and the error is horizontal.
+  EXPECT_NEAR(h.mean_horizontal_error_m, 0.15, 1e-9);
+  EXPECT_NEAR(h.mean_vertical_error_m, 0.0, 1e-9);
+  EXPECT_NEAR(h.max_heading_error_deg, 0.0, 1e-9);
+}
+
 TEST(TrajectoryMetrics, InterpolatesGroundTruthBetweenSamples) {
   // Estimate at 10 Hz, offset by 50 ms: halfway between ground-truth samples.
   const auto gt = line(5.0);
