@@ -11,8 +11,10 @@
 #   reports; GCC 12 reports impossible memset bounds (stringop-overflow, array-bounds) once TSan's
 #   instrumentation changes its inlining, e.g. in tests/drivers/lcm/lcm_log_replay_test.cpp, and
 #   at -O1 with ASan a "maybe uninitialized" variable that every path using it has set (the
-#   albedo in tools/simulate/seafloor_renderer.cpp: set in both branches that make l > 0). The
-#   Release build of the test phase keeps all three warnings as errors.)
+#   albedo in tools/simulate/seafloor_renderer.cpp, before that file was built uninstrumented:
+#   set in both branches that make l > 0). The Release build of the test phase keeps all three
+#   warnings as errors. The simulator's pixel-making files build without instrumentation at
+#   -O2: tools/simulate/CMakeLists.txt.)
 # The end-to-end daemon tests detect the sanitizer at compile time and stretch their waits
 # (tests/daemon/seaviod_e2e_test.cpp), so they run here rather than being skipped.
 # Prints the build and test times. Exit status: non-zero if the build, any test or any sanitizer
