@@ -38,6 +38,9 @@ function(seavio_module name)
 endfunction()
 
 # seavio_test(<name> LIBS ...): one gtest executable from every .cpp in the calling folder.
+# Unity builds put up to 8 of those files in one translation unit, so a test file keeps its
+# helpers in `namespace <file stem> { namespace { ... } }`: the files of one folder reuse helper
+# names (kSpeed, tempPath, RecordingProcessor, ...), which a bare anonymous namespace would clash on.
 function(seavio_test name)
   cmake_parse_arguments(ARG "" "" "LIBS" ${ARGN})
   file(GLOB srcs CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*.cpp)

@@ -13,6 +13,7 @@
 #include "tools/command_registry.hpp"
 
 namespace seavio::tools {
+namespace cmd_bench {
 namespace {
 
 struct BenchCliOptions {
@@ -125,4 +126,5 @@ const RegisterCommand kRegister("bench", [](CLI::App& app) {
 });
 
 }  // namespace
+}  // namespace cmd_bench
 }  // namespace seavio::tools

@@ -12,6 +12,7 @@
 #include "tools/lcm_trajectory.hpp"
 
 namespace seavio::tools {
+namespace cmd_eval {
 namespace {
 
 struct EvalOptions {
@@ -83,4 +84,5 @@ const RegisterCommand kRegister("eval", [](CLI::App& app) {
 });
 
 }  // namespace
+}  // namespace cmd_eval
 }  // namespace seavio::tools

@@ -14,6 +14,7 @@
 #include "tools/command_registry.hpp"
 
 namespace seavio::tools {
+namespace cmd_log {
 namespace {
 
 struct LogOptions {
@@ -101,4 +102,5 @@ const RegisterCommand kRegister("log", [](CLI::App& app) {
 });
 
 }  // namespace
+}  // namespace cmd_log
 }  // namespace seavio::tools

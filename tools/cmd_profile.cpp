@@ -9,6 +9,7 @@
 #include "tools/profile_report.hpp"
 
 namespace seavio::tools {
+namespace cmd_profile {
 namespace {
 
 struct ProfileOptions {
@@ -68,4 +69,5 @@ const RegisterCommand kRegister("profile", [](CLI::App& app) {
 });
 
 }  // namespace
+}  // namespace cmd_profile
 }  // namespace seavio::tools

@@ -23,6 +23,7 @@
 #include "tools/sequence_runner.hpp"
 
 namespace seavio::tools {
+namespace cmd_run {
 namespace {
 
 struct RunOptions {
@@ -173,4 +174,5 @@ const RegisterCommand kRegister("run", [](CLI::App& app) {
 });
 
 }  // namespace
+}  // namespace cmd_run
 }  // namespace seavio::tools

@@ -15,6 +15,7 @@
 #include "tools/simulate/sim_config.hpp"
 
 namespace seavio::tools {
+namespace cmd_simulate {
 namespace {
 
 struct SimulateOptions {
@@ -132,4 +133,5 @@ const RegisterCommand kRegister{"simulate", [](CLI::App& app) {
 }};
 
 }  // namespace
+}  // namespace cmd_simulate
 }  // namespace seavio::tools

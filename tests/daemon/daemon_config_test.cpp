@@ -3,6 +3,7 @@
 #include "daemon/daemon_config.hpp"
 
 namespace seavio::daemon {
+namespace daemon_config_test {
 namespace {
 
 bool anyContains(const std::vector<std::string>& errors, const std::string& needle) {
@@ -164,4 +165,5 @@ TEST(DaemonConfig, DescribeListsEffectiveValues) {
 }
 
 }  // namespace
+}  // namespace daemon_config_test
 }  // namespace seavio::daemon

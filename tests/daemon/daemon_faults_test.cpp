@@ -41,6 +41,7 @@
 extern char** environ;
 
 namespace seavio::daemon {
+namespace daemon_faults_test {
 namespace {
 
 using namespace std::chrono_literals;
@@ -526,4 +527,5 @@ TEST(SeaviodWatchdog, FedWhileFramesFlowEvenWithoutImuAndStarvedOnlyWhenFramesSt
 }
 
 }  // namespace
+}  // namespace daemon_faults_test
 }  // namespace seavio::daemon

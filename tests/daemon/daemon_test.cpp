@@ -15,6 +15,7 @@
 #include "tests/daemon/daemon_test_support.hpp"
 
 namespace seavio::daemon {
+namespace daemon_test {
 namespace {
 
 using namespace std::chrono_literals;
@@ -444,4 +445,5 @@ TEST(ImuDeadReckoning, ConstantAccelerationIntegrates) {
 }
 
 }  // namespace
+}  // namespace daemon_test
 }  // namespace seavio::daemon

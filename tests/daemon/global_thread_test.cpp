@@ -29,6 +29,7 @@
 #include "tests/daemon/daemon_test_support.hpp"
 
 namespace seavio::daemon {
+namespace global_thread_test {
 namespace {
 
 using namespace std::chrono_literals;
@@ -318,4 +319,5 @@ TEST(GlobalThreadConfig, KeyParsedAndRingValidatedWithFileAndKeyInErrors) {
 }
 
 }  // namespace
+}  // namespace global_thread_test
 }  // namespace seavio::daemon

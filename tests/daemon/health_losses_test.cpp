@@ -5,6 +5,7 @@
 #include "daemon/health.hpp"
 
 namespace seavio::daemon {
+namespace health_losses_test {
 namespace {
 
 OdometryResult result(PoseSource source, CoastingCorrection coasting) {
@@ -33,4 +34,5 @@ TEST(HealthLosses, ImuOnlyFramesAreCountedWithHowTheirCoastingWasCorrected) {
 }
 
 }  // namespace
+}  // namespace health_losses_test
 }  // namespace seavio::daemon

@@ -6,6 +6,7 @@
 #include "daemon/timestamp_monitor.hpp"
 
 namespace seavio::daemon {
+namespace latency_and_stamps_test {
 namespace {
 
 TEST(LatencyHistogram, PercentilesWithinBinWidth) {
@@ -55,4 +56,5 @@ TEST(TimestampMonitor, ClassifiesEveryCase) {
 }
 
 }  // namespace
+}  // namespace latency_and_stamps_test
 }  // namespace seavio::daemon

@@ -16,6 +16,7 @@
 #include "tests/daemon/daemon_test_support.hpp"
 
 namespace seavio::daemon {
+namespace latency_imu_hold_test {
 namespace {
 
 using namespace std::chrono_literals;
@@ -143,4 +144,5 @@ TEST(LatencyImuHold, ConfigKeyIsParsedAndBounded) {
 }
 
 }  // namespace
+}  // namespace latency_imu_hold_test
 }  // namespace seavio::daemon

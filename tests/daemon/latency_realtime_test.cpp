@@ -27,6 +27,7 @@
 #include "tests/daemon/daemon_test_support.hpp"
 
 namespace seavio::daemon {
+namespace latency_realtime_test {
 namespace {
 
 using namespace std::chrono_literals;
@@ -287,4 +288,5 @@ TEST(LatencyRealtime, DaemonFramePathFifoWhenPermittedElseReportedAsRefused) {
 }
 
 }  // namespace
+}  // namespace latency_realtime_test
 }  // namespace seavio::daemon

@@ -2,6 +2,8 @@
 // (see tests/drivers/lcm/private_netns.hpp).
 #include "tests/drivers/lcm/private_netns.hpp"
 
+namespace netns_environment {
 namespace {
 const auto* const kEnv = ::testing::AddGlobalTestEnvironment(new seavio::test::PrivateNetnsEnvironment);
 }  // namespace
+}  // namespace netns_environment

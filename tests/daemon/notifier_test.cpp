@@ -11,6 +11,7 @@
 #include "tests/daemon/notify_listener.hpp"
 
 namespace seavio::daemon {
+namespace notifier_test {
 namespace {
 
 /// The listener on a temporary NOTIFY_SOCKET, exported for libsystemd's sd_notify.
@@ -55,4 +56,5 @@ TEST(SystemdNotifier, WithoutNotifySocketNothingIsSent) {
 }
 
 }  // namespace
+}  // namespace notifier_test
 }  // namespace seavio::daemon

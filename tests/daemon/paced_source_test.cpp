@@ -5,6 +5,7 @@
 #include "daemon/paced_source.hpp"
 
 namespace seavio::daemon {
+namespace paced_source_test {
 namespace {
 
 using namespace std::chrono_literals;
@@ -60,4 +61,5 @@ TEST(PacedSource, AsFastAsPossibleAndEndPassesThrough) {
 }
 
 }  // namespace
+}  // namespace paced_source_test
 }  // namespace seavio::daemon

@@ -67,6 +67,7 @@
 
 extern char** environ;
 
+namespace seaviod_e2e_test {
 namespace {
 
 using namespace std::chrono_literals;
@@ -736,4 +737,5 @@ TEST(SeaviodE2E, SurvivesCameraRestartImuSilenceAndSerialGarbageCountingEach) {
 }
 
 }  // namespace
+}  // namespace seaviod_e2e_test
 #endif  // SEAVIO_HAVE_ARAVIS

@@ -20,6 +20,7 @@
 
 extern char** environ;
 
+namespace seaviod_process_test {
 namespace {
 
 using namespace std::chrono_literals;
@@ -157,3 +158,4 @@ TEST(Seaviod, LcmFedDaemonPublishesPosesAndStopsOnSigtermWithinOneSecond) {
 }
 
 }  // namespace
+}  // namespace seaviod_process_test

@@ -14,6 +14,7 @@
 #include "drivers/lcm/lcm_log.hpp"
 
 namespace seavio::daemon {
+namespace source_factory_test {
 namespace {
 
 using namespace std::chrono_literals;
@@ -119,9 +120,11 @@ TEST(SourceFactory, CanImuFromACandumpLogWithTheShippedGenericProfile) {
 }
 
 }  // namespace
+}  // namespace source_factory_test
 }  // namespace seavio::daemon
 
 namespace seavio::daemon {
+namespace source_factory_test {
 namespace {
 
 // seaviod replays a recorded log when lcm.input_url names it, while poses still go to lcm.url.
@@ -173,4 +176,5 @@ TEST(SourceFactory, LcmInputUrlWithoutAnLcmDriverIsAConfigError) {
 }
 
 }  // namespace
+}  // namespace source_factory_test
 }  // namespace seavio::daemon

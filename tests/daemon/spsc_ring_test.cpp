@@ -10,6 +10,7 @@
 #include "daemon/spsc_ring.hpp"
 
 namespace seavio::daemon {
+namespace spsc_ring_test {
 namespace {
 
 using namespace std::chrono_literals;
@@ -119,4 +120,5 @@ TEST(FrameRing, ConcurrentDrainToNewestAccountsForEveryFrame) {
 }
 
 }  // namespace
+}  // namespace spsc_ring_test
 }  // namespace seavio::daemon

@@ -13,6 +13,7 @@
 #include <sstream>
 #include <string>
 
+namespace systemd_unit_test {
 namespace {
 
 struct CmdResult {
@@ -88,3 +89,4 @@ TEST(SystemdUnit, SecurityExposureAtMost2_5) {
 }
 
 }  // namespace
+}  // namespace systemd_unit_test

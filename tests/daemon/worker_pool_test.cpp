@@ -11,6 +11,7 @@
 #include "daemon/worker_pool.hpp"
 
 namespace seavio::daemon {
+namespace worker_pool_test {
 namespace {
 
 using namespace std::chrono_literals;
@@ -159,4 +160,5 @@ TEST(WorkerPool, RecurringJobInFlightIsNotPostedTwice) {
 }
 
 }  // namespace
+}  // namespace worker_pool_test
 }  // namespace seavio::daemon

@@ -10,6 +10,7 @@
 #include "core/imu/imu_integrator.hpp"
 
 namespace seavio::imu {
+namespace accel_bias_estimator_test {
 namespace {
 
 int64_t ns(double t_s) { return static_cast<int64_t>(std::llround(t_s * 1e9)); }
@@ -150,4 +151,5 @@ TEST(AccelBiasEstimator, AShortWindowStaysOpenUntilItSpansTheConfiguredTime) {
 }
 
 }  // namespace
+}  // namespace accel_bias_estimator_test
 }  // namespace seavio::imu

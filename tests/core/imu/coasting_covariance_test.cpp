@@ -13,6 +13,7 @@
 #include "core/imu/imu_integrator.hpp"
 
 namespace seavio::imu {
+namespace coasting_covariance_test {
 namespace {
 
 constexpr double kRate = 200.0;
@@ -146,4 +147,5 @@ TEST(CoastingCovariance, PoseCovarianceIsInTheWorldFrameAndStopEndsTheOutage) {
 }
 
 }  // namespace
+}  // namespace coasting_covariance_test
 }  // namespace seavio::imu

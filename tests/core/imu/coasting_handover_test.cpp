@@ -14,6 +14,7 @@
 #include "core/imu/imu_interpolation.hpp"
 
 namespace seavio::imu {
+namespace coasting_handover_test {
 namespace {
 
 constexpr int64_t kFrameNs = 100'000'000;  // 10 Hz
@@ -267,4 +268,5 @@ TEST(ImuInterpolation, LinearBetweenSamplesHeldBeyondTheEndsZeroWithoutSamples) 
 }
 
 }  // namespace
+}  // namespace coasting_handover_test
 }  // namespace seavio::imu

@@ -14,6 +14,7 @@
 #include "core/imu/imu_noise.hpp"
 
 namespace seavio::imu {
+namespace coasting_leak_test {
 namespace {
 
 constexpr int64_t kSecondNs = 1'000'000'000;
@@ -193,4 +194,5 @@ TEST(CoastingLeak, NothingAtTenHertzNorAfterALossOrReset) {
 }
 
 }  // namespace
+}  // namespace coasting_leak_test
 }  // namespace seavio::imu

@@ -15,6 +15,7 @@
 #include "core/imu/imu_integrator.hpp"
 
 namespace seavio::imu {
+namespace gravity_bias_observer_test {
 namespace {
 
 struct Flight {
@@ -137,4 +138,5 @@ TEST(GravityBiasObserver, ATurnStopsTheComparison) {
 }
 
 }  // namespace
+}  // namespace gravity_bias_observer_test
 }  // namespace seavio::imu

@@ -8,6 +8,7 @@
 #include "core/imu/imu_integrator.hpp"
 
 namespace seavio::imu {
+namespace imu_integrator_test {
 namespace {
 
 // An analytic trajectory: constant body rate, smooth position.
@@ -140,4 +141,5 @@ TEST(ImuIntegrator, NoSamplesExtrapolatesAndGrowsUncertainty) {
 }
 
 }  // namespace
+}  // namespace imu_integrator_test
 }  // namespace seavio::imu

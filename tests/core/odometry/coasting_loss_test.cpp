@@ -21,6 +21,7 @@
 #include "tests/core/odometry/floor_frame.hpp"
 
 namespace seavio::odometry {
+namespace coasting_loss_test {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -175,4 +176,5 @@ TEST(CoastingLoss, At1HzFixesThatDisagreeCorrectNothingAndOnlyWidenTheCovariance
 }
 
 }  // namespace
+}  // namespace coasting_loss_test
 }  // namespace seavio::odometry

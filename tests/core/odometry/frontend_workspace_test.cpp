@@ -18,6 +18,7 @@
 #include "tests/core/geometry/synthetic_scene.hpp"
 
 namespace seavio::odometry {
+namespace frontend_workspace_test {
 namespace {
 
 bool sameMat(const cv::Mat& a, const cv::Mat& b) {
@@ -237,4 +238,5 @@ TEST(OdometryWorkspaceReuse, ProcessTracksExactlyLikeFreshFrontendFrames) {
 }
 
 }  // namespace
+}  // namespace frontend_workspace_test
 }  // namespace seavio::odometry

@@ -15,6 +15,7 @@
 #include "core/odometry/chain_covariance.hpp"
 
 namespace seavio::odometry {
+namespace global_chain_covariance_test {
 namespace {
 
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
@@ -144,4 +145,5 @@ TEST(GlobalChainCovariance, AHeadingErrorTurnsLaterStepsAboutTheReference) {
 }
 
 }  // namespace
+}  // namespace global_chain_covariance_test
 }  // namespace seavio::odometry

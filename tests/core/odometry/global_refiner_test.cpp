@@ -17,6 +17,7 @@
 #include "tests/core/odometry/floor_frame.hpp"
 
 namespace seavio::odometry {
+namespace global_refiner_test {
 namespace {
 
 using test::downwardRig;
@@ -507,4 +508,5 @@ TEST(GlobalKeyframe, DeferredCorrectionsOfFramesTrackedBeforeTheFirstLandsAreNot
 }
 
 }  // namespace
+}  // namespace global_refiner_test
 }  // namespace seavio::odometry

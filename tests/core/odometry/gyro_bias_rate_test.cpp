@@ -14,6 +14,7 @@
 #include "tests/core/odometry/floor_frame.hpp"
 
 namespace seavio::odometry {
+namespace gyro_bias_rate_test {
 namespace {
 
 struct DriftRun {
@@ -102,4 +103,5 @@ TEST(GyroBiasRate, At10HzTheGainIsTheOldPerFrameGainExactly) {
 }
 
 }  // namespace
+}  // namespace gyro_bias_rate_test
 }  // namespace seavio::odometry

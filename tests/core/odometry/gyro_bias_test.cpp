@@ -13,6 +13,7 @@
 #include "tests/core/odometry/floor_frame.hpp"
 
 namespace seavio::odometry {
+namespace gyro_bias_test {
 namespace {
 
 constexpr double kSpeed = 1.0;  // [m/s], level flight along x, 4 m above the floor
@@ -88,4 +89,5 @@ TEST(GyroBiasLearning, PerKeyframeSpanLearnsAnUnseenBiasAtLeastAsWellAsPerFrame)
 }
 
 }  // namespace
+}  // namespace gyro_bias_test
 }  // namespace seavio::odometry

@@ -16,6 +16,7 @@
 #include "tests/core/odometry/floor_frame.hpp"
 
 namespace seavio::odometry {
+namespace gyro_bias_tilt_test {
 namespace {
 
 constexpr double kSpeed = 1.0;            // [m/s], level flight along x, 4 m above the floor
@@ -95,4 +96,5 @@ TEST(GyroBiasTilt, AVisualPitchRateIsNotLearntIntoTheAttitudeWithGravityAsTheTil
 }
 
 }  // namespace
+}  // namespace gyro_bias_tilt_test
 }  // namespace seavio::odometry

@@ -10,6 +10,7 @@
 #include "core/odometry/motion_refinement.hpp"
 
 namespace seavio::odometry {
+namespace motion_refinement_test {
 namespace {
 
 camera::RectifiedRig makeRig() {
@@ -138,4 +139,5 @@ TEST(MotionRefinement, TooFewMatchesReturnNotOk) {
 }
 
 }  // namespace
+}  // namespace motion_refinement_test
 }  // namespace seavio::odometry

@@ -15,6 +15,7 @@
 #include "tests/core/odometry/floor_frame.hpp"
 
 namespace seavio::odometry {
+namespace pnp_baseline_test {
 namespace {
 
 constexpr double kSpeed = 1.0, kFrameDt = 0.1;  // [m/s], [s]: 0.1 m per frame, as the short surveys
@@ -133,4 +134,5 @@ TEST(PnpBaseline, RejectsAWrongSelfConsistentJumpAndCarriesConstantVelocity) {
 }
 
 }  // namespace
+}  // namespace pnp_baseline_test
 }  // namespace seavio::odometry

@@ -17,6 +17,7 @@
 #include "tests/core/odometry/floor_frame.hpp"
 
 namespace seavio::odometry {
+namespace pose_chain_test {
 namespace {
 
 constexpr double kRollAmp = 0.02, kRollPeriod = 3.0, kSpeed = 1.0;  // [rad], [s], [m/s]
@@ -78,4 +79,5 @@ TEST(OdometryPoseChain, WorldRotationStaysOrthonormalAndStepsKeepTheirLength) {
 }
 
 }  // namespace
+}  // namespace pose_chain_test
 }  // namespace seavio::odometry

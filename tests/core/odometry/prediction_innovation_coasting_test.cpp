@@ -6,6 +6,7 @@
 #include "core/odometry/prediction_innovation.hpp"
 
 namespace seavio::odometry {
+namespace prediction_innovation_coasting_test {
 namespace {
 
 TEST(PredictionInnovationCoasting, ACorrectedCoastingCentresTheNextWindowsOnItsOwnMissNotKTimesTheFixes) {
@@ -30,4 +31,5 @@ TEST(PredictionInnovationCoasting, ACorrectedCoastingCentresTheNextWindowsOnItsO
 }
 
 }  // namespace
+}  // namespace prediction_innovation_coasting_test
 }  // namespace seavio::odometry

@@ -8,6 +8,7 @@
 #include "core/odometry/prediction_innovation.hpp"
 
 namespace seavio::odometry {
+namespace prediction_innovation_test {
 namespace {
 
 TEST(PredictionInnovation, NothingBeforeAFixNorBelowTheGate) {
@@ -70,4 +71,5 @@ TEST(PredictionInnovation, CancelsTheGravityLeakOfAOneHertzSurvey) {
 }
 
 }  // namespace
+}  // namespace prediction_innovation_test
 }  // namespace seavio::odometry

@@ -4,6 +4,7 @@
 #include "core/odometry/frontend.hpp"
 
 namespace seavio::odometry {
+namespace snow_filter_test {
 namespace {
 
 TEST(SnowFilter, RemovesSmallBrightDotsAndKeepsLargerFloorStructure) {
@@ -26,4 +27,5 @@ TEST(SnowFilter, RemovesSmallBrightDotsAndKeepsLargerFloorStructure) {
 }
 
 }  // namespace
+}  // namespace snow_filter_test
 }  // namespace seavio::odometry

@@ -11,6 +11,7 @@
 #include "drivers/lcm/lcm_log.hpp"
 
 namespace seavio::drivers {
+namespace dataset_log_test {
 namespace {
 
 namespace fs = std::filesystem;
@@ -107,4 +108,5 @@ TEST(DatasetLog, UnwritableOutputIsReported) {
 }
 
 }  // namespace
+}  // namespace dataset_log_test
 }  // namespace seavio::drivers

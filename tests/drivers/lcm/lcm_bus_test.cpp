@@ -11,6 +11,7 @@
 #include "drivers/lcm/lcm_sources.hpp"
 
 namespace seavio::drivers {
+namespace lcm_bus_test {
 namespace {
 
 const std::string kUrl(lcm_channels::kDefaultUrl);
@@ -108,4 +109,5 @@ TEST(LcmSources, ReadTimesOutWhenNothingArrives) {
 }
 
 }  // namespace
+}  // namespace lcm_bus_test
 }  // namespace seavio::drivers

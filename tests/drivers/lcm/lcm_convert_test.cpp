@@ -6,6 +6,7 @@
 #include "drivers/lcm/lcm_convert.hpp"
 
 namespace seavio::drivers {
+namespace lcm_convert_test {
 namespace {
 
 OdometryResult sampleResult() {
@@ -137,9 +138,11 @@ TEST(LcmConvert, ImuRoundTrip) {
 }
 
 }  // namespace
+}  // namespace lcm_convert_test
 }  // namespace seavio::drivers
 
 namespace seavio::drivers {
+namespace lcm_convert_test {
 namespace {
 
 TEST(LcmConvert, PoseTimingListsStagesAndAcquisitionOnlyOnTheDaemonClock) {
@@ -181,4 +184,5 @@ TEST(LcmConvert, PoseTimingListsStagesAndAcquisitionOnlyOnTheDaemonClock) {
 }
 
 }  // namespace
+}  // namespace lcm_convert_test
 }  // namespace seavio::drivers

@@ -16,6 +16,7 @@
 #include "drivers/lcm/lcm_sources.hpp"
 
 namespace seavio::drivers {
+namespace lcm_log_replay_test {
 namespace {
 
 using namespace std::chrono_literals;
@@ -257,4 +258,5 @@ TEST(LcmLogScanner, GarbageOnlyFileHasNoEventAndATruncatedTail) {
 }
 
 }  // namespace
+}  // namespace lcm_log_replay_test
 }  // namespace seavio::drivers

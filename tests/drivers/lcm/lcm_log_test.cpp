@@ -11,6 +11,7 @@
 #include "seavio_lcm/stereo_t.hpp"
 
 namespace seavio::drivers {
+namespace lcm_log_test {
 namespace {
 
 std::string tempPath(const std::string& name) {
@@ -122,4 +123,5 @@ TEST(LcmLog, MissingFileNamesThePath) {
 }
 
 }  // namespace
+}  // namespace lcm_log_test
 }  // namespace seavio::drivers

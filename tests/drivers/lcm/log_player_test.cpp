@@ -13,6 +13,7 @@
 #include "drivers/lcm/log_player.hpp"
 
 namespace seavio::drivers {
+namespace log_player_test {
 namespace {
 
 std::string tempPath(const std::string& name) {
@@ -96,4 +97,5 @@ TEST(LogPlayer, UnreadableOrEmptyLogIsAnErrorNamingIt) {
 }
 
 }  // namespace
+}  // namespace log_player_test
 }  // namespace seavio::drivers

@@ -15,6 +15,7 @@
 #include "seavio_lcm/status_t.hpp"
 #include "seavio_lcm/stereo_t.hpp"
 
+namespace safe_decode_test {
 namespace {
 
 using seavio::drivers::decodeLcm;
@@ -161,3 +162,4 @@ TEST(SafeDecode, LogWithAHugeEventLengthEndsWithoutAllocatingIt) {
 }
 
 }  // namespace
+}  // namespace safe_decode_test
