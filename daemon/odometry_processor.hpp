@@ -111,6 +111,7 @@ class OdometryProcessor : public FrameProcessor {
     f.times.features_ms = timer.lap_ms();
     frontend.matchStereo(f.left, f.right, ws_, f.stereo);
     f.times.stereo_ms = timer.lap_ms();
+    odometry::Frontend::keepImages(ws_, f);
   }
 
   /// What the right image's job works on this frame.

@@ -408,6 +408,12 @@ void Frontend::process(const StereoFrame& frame, double threshold, const NowNsFn
   f.times.features_ms = timer.lap_ms();
   matchStereo(f.left, f.right, ws, f.stereo);
   f.times.stereo_ms = timer.lap_ms();
+  keepImages(ws, f);
+}
+
+void Frontend::keepImages(const FrontendWorkspace& ws, FrameFeatures& f) {
+  ws.left_rect.copyTo(f.left_image);
+  ws.right_rect.copyTo(f.right_image);
 }
 
 FrameFeatures Frontend::process(const StereoFrame& frame, double threshold, const NowNsFn& now) const {
@@ -424,6 +430,8 @@ FrameFeatures Frontend::process(const StereoFrame& frame, double threshold, cons
   f.times.features_ms = timer.lap_ms();
   f.stereo = matchStereo(f.left, f.right);
   f.times.stereo_ms = timer.lap_ms();
+  f.left_image = left;
+  f.right_image = right;
   return f;
 }
 

@@ -25,6 +25,9 @@ struct FrameFeatures {
   matching::StereoFeatures stereo;  ///< stereo points + left descriptors, row-aligned
   double detector_threshold = 0;    ///< threshold the features were detected with
   StageTimes times;                 ///< rectify, features, stereo filled
+  /// The rectified, filtered images the features come from (CV_8UC1), for patch refinement
+  /// (OdometryParams::patch_refinement). Owned: the workspace's are overwritten next frame.
+  cv::Mat left_image, right_image;
 };
 
 /// Flat-field correction. The vehicle carries its lights, so uneven illumination and
@@ -152,6 +155,9 @@ class Frontend {
   /// `upright_angle_deg`: upright SURF's steering angle (Odometry::descriptorSteeringDeg).
   void detect(const cv::Mat& rectified, double threshold, features::SurfWorkspace& surf,
               features::Features& out, float upright_angle_deg = 0.f) const;
+  /// Copies the workspace's rectified images into `f` (FrameFeatures::left_image, right_image),
+  /// reusing `f`'s buffers.
+  static void keepImages(const FrontendWorkspace& ws, FrameFeatures& f);
   /// Stereo matching + triangulation of already detected features.
   matching::StereoFeatures matchStereo(const features::Features& left, const features::Features& right) const;
   /// The same into `out`, reusing its buffers (points, descriptor rows) and `ws`'s scratch.

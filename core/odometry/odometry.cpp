@@ -276,7 +276,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
         return p;
       }(), frame.stereo, pose_covariance_.bottomRightCorner<3, 3>().trace(), true);
     }
-    if (params_.keyframe_tracking) newKeyframe(frame.stereo, T_W_R0, r.t_ns);
+    if (params_.keyframe_tracking) newKeyframe(frame, T_W_R0, r.t_ns);
     previous_ = PreviousFrame{std::move(frame), T_W_R0, r.t_ns};
     r.times.total_ms = r.times.rectify_ms + r.times.features_ms + r.times.stereo_ms + timer.total_ms();
     return r;
@@ -409,6 +409,12 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     }
   }
   r.quality.ransac_inliers = static_cast<int>(ransac.inliers.size());
+  if (vision_ok && params_.patch_refinement) {
+    const cv::Mat& ref_left = on_keyframe ? keyframe_->left_image : prev.features.left_image;
+    const cv::Mat& ref_right = on_keyframe ? keyframe_->right_image : prev.features.right_image;
+    refineInlierPatches(*ref_features, ref_left, ref_right, frame, temporal, ransac.T_prev_curr, ransac.inliers,
+                        quads);
+  }
 
   Eigen::Isometry3d T_prev_curr = vision_ok ? ransac.T_prev_curr : T_ref_curr_pred;
   Matrix6d rel_cov = vision_ok ? Matrix6d(ransac.covariance) : pred_cov;
@@ -783,7 +789,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
         }
         r.times.tensor_ms += timer.lap_ms();
       }
-      newKeyframe(frame.stereo, T_W_R0, r.t_ns);
+      newKeyframe(frame, T_W_R0, r.t_ns);
     }
   }
   // The outgoing previous frame's buffers go back to the caller's FrameFeatures (issue 8).
@@ -794,8 +800,13 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   return r;
 }
 
-void Odometry::newKeyframe(const matching::StereoFeatures& features, const Eigen::Isometry3d& T_W_R0, int64_t t_ns) {
+void Odometry::newKeyframe(const FrameFeatures& frame, const Eigen::Isometry3d& T_W_R0, int64_t t_ns) {
+  const matching::StereoFeatures& features = frame.stereo;
   Keyframe k;
+  if (params_.patch_refinement) {
+    k.left_image = frame.left_image.clone();
+    k.right_image = frame.right_image.clone();
+  }
   k.features.points = features.points;
   k.features.laplacian_sign = features.laplacian_sign;
   // Its own copy: the keyframe outlives the frame whose buffers the frontend may reuse.
@@ -804,6 +815,39 @@ void Odometry::newKeyframe(const matching::StereoFeatures& features, const Eigen
   k.t_ns = t_ns;
   k.pose_covariance = pose_covariance_;
   keyframe_ = std::move(k);
+}
+
+void Odometry::refineInlierPatches(const matching::StereoFeatures& ref_features, const cv::Mat& ref_left,
+                                   const cv::Mat& ref_right, const FrameFeatures& frame,
+                                   const std::vector<matching::TemporalMatch>& temporal,
+                                   const Eigen::Isometry3d& T_ref_curr, const std::vector<uint32_t>& inliers,
+                                   std::vector<geometry::QuadMatch>& quads) const {
+  if (ref_left.empty() || ref_right.empty() || frame.left_image.empty() || frame.right_image.empty()) return;
+  // A reference offset d appears in the current image turned by the motion's roll about the
+  // optical axis and scaled by the depth ratio (a near-nadir view of a near-flat floor).
+  const Eigen::Matrix3d R_curr_ref = T_ref_curr.rotation().transpose();
+  const double angle = std::atan2(R_curr_ref(1, 0) - R_curr_ref(0, 1), R_curr_ref(0, 0) + R_curr_ref(1, 1));
+  const Eigen::Matrix2f turn = Eigen::Rotation2Df(static_cast<float>(angle)).toRotationMatrix();
+  for (const uint32_t i : inliers) {
+    if (i >= quads.size() || i >= temporal.size()) continue;
+    geometry::QuadMatch& q = quads[i];
+    const auto& a = ref_features.points[static_cast<std::size_t>(temporal[i].prev)];
+    const auto& b = frame.stereo.points[static_cast<std::size_t>(temporal[i].curr)];
+    const float scale = b.p_R0.z() > 0 && a.p_R0.z() > 0 ? a.p_R0.z() / b.p_R0.z() : 1.f;
+    const Eigen::Matrix2f A = scale * turn;
+    const matching::PatchTemplate tmpl = matching::makePatchTemplate(ref_left, q.left_prev, params_.patch);
+    if (!tmpl.ok) continue;
+    const auto rp = matching::alignPatch(tmpl, ref_right, q.right_prev, Eigen::Matrix2f::Identity(), params_.patch);
+    if (!rp.ok) continue;
+    const auto lc = matching::alignPatch(tmpl, frame.left_image, q.left_curr, A, params_.patch);
+    if (!lc.ok) continue;
+    const auto rc = matching::alignPatch(tmpl, frame.right_image, q.right_curr, A, params_.patch);
+    // All three or none: a point half refined would mix two localisations of one feature.
+    if (!rc.ok) continue;
+    q.right_prev = rp.uv;
+    q.left_curr = lc.uv;
+    q.right_curr = rc.uv;
+  }
 }
 
 std::size_t Odometry::mapMemoryBytes() const { return refiner_.memoryBytes(); }

@@ -22,6 +22,7 @@
 #include "core/map/frame_map.hpp"
 #include "core/odometry/frontend.hpp"
 #include "core/odometry/global_refiner.hpp"
+#include "core/matching/patch_alignment.hpp"
 #include "core/odometry/motion_refinement.hpp"
 #include "core/odometry/prediction_innovation.hpp"
 
@@ -81,6 +82,12 @@ struct OdometryParams {
   /// orientation whose noise costs rotation-invariant SURF matches (docs/features.md).
   bool steer_upright_descriptors = true;
   MotionRefinementParams refinement;
+  /// Patch refinement of the RANSAC inliers before the four-view refinements: the reference
+  /// left keypoint's patch is found again in the reference right image and both current
+  /// images (core/matching/patch_alignment.hpp), so every image of a point is measured
+  /// against one anchor instead of four independent SURF detections.
+  bool patch_refinement = true;
+  matching::PatchAlignParams patch;
   int min_inliers = 15;                      ///< fewer RANSAC inliers = vision failed this frame
   /// Second chance for a frame that failed: wide-baseline matches (1 Hz frames, 1.5 m apart,
   /// marine snow) are localised worse than the tight default threshold assumes, so RANSAC is
@@ -260,7 +267,13 @@ class Odometry {
   /// and the keyframe with it, so the next frame tracked against them carries the correction.
   void turnChain(const Eigen::Matrix3d& R, Eigen::Isometry3d& T_W_R0);
   /// Makes the frame just tracked (pose `T_W_R0`, the current pose covariance) the keyframe.
-  void newKeyframe(const matching::StereoFeatures& features, const Eigen::Isometry3d& T_W_R0, int64_t t_ns);
+  void newKeyframe(const FrameFeatures& frame, const Eigen::Isometry3d& T_W_R0, int64_t t_ns);
+  /// patch_refinement: the RANSAC inliers of `quads` (temporal matches `temporal` of
+  /// `ref_features` against `frame`) aligned on the reference left image's patches.
+  void refineInlierPatches(const matching::StereoFeatures& ref_features, const cv::Mat& ref_left,
+                           const cv::Mat& ref_right, const FrameFeatures& frame,
+                           const std::vector<matching::TemporalMatch>& temporal, const Eigen::Isometry3d& T_ref_curr,
+                           const std::vector<uint32_t>& inliers, std::vector<geometry::QuadMatch>& quads) const;
   /// Deferred mode: the request for the frame just tracked.
   void makeGlobalRequest(const FrameFeatures& frame, const Eigen::Isometry3d& T_W_R0, const OdometryResult& r,
                          bool first_frame);
@@ -312,6 +325,7 @@ class Odometry {
     int frames_tracked = 0; ///< visual frames tracked against it (gyro_bias_per_keyframe's gain)
     Eigen::Matrix3d R_kf_prev_gyro = Eigen::Matrix3d::Identity();  ///< rectified left cameras
     Eigen::Matrix3d gyro_covariance = Eigen::Matrix3d::Zero();    ///< its white-noise part [rad^2]
+    cv::Mat left_image, right_image;  ///< patch_refinement only: its own copies
   };
   std::optional<Keyframe> keyframe_;
   Eigen::Isometry3d last_motion_ = Eigen::Isometry3d::Identity();  ///< for IMU-less prediction

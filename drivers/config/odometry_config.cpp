@@ -254,6 +254,15 @@ void visit(V& v, odometry::OdometryParams& p) {
     v.value("huber_px", p.refinement.huber_px, 1e-3, 100);
     v.value("min_rotation_sigma_rad", p.refinement.min_rotation_sigma_rad, 0, 1);
   });
+  v.section("patch_refinement", [&] {
+    v.flag("enabled", p.patch_refinement);
+    v.value("half_size_px", p.patch.half_size_px, 1, 15);
+    v.value("max_iterations", p.patch.max_iterations, 1, 100);
+    v.value("max_shift_px", p.patch.max_shift_px, 0.01, 20);
+    v.value("min_zncc", p.patch.min_zncc, -1, 1);
+    v.value("min_stddev_dn", p.patch.min_stddev_dn, 0, 255);
+    v.value("min_eigen_ratio", p.patch.min_eigen_ratio, 0, 0.25);
+  });
   v.section("snow_filter", [&] {
     v.flag("enabled", p.snow.enabled);
     v.value("kernel_px", p.snow.kernel_px, 0, 31);
