@@ -804,8 +804,14 @@ void Odometry::newKeyframe(const FrameFeatures& frame, const Eigen::Isometry3d& 
   const matching::StereoFeatures& features = frame.stereo;
   Keyframe k;
   if (params_.patch_refinement) {
-    k.left_image = frame.left_image.clone();
-    k.right_image = frame.right_image.clone();
+    // Its own copies, into the outgoing keyframe's buffers: at 1 Hz every frame is a keyframe,
+    // and a clone would allocate two images per frame.
+    if (keyframe_) {
+      k.left_image = std::move(keyframe_->left_image);
+      k.right_image = std::move(keyframe_->right_image);
+    }
+    frame.left_image.copyTo(k.left_image);
+    frame.right_image.copyTo(k.right_image);
   }
   k.features.points = features.points;
   k.features.laplacian_sign = features.laplacian_sign;
