@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "core/common/capacity.hpp"
 #include "core/matching/descriptor_distance.hpp"
 
 namespace seavio::matching {
@@ -25,6 +26,7 @@ class PixelGrid {
     start_.assign(cells + 1, 0);
     for (const StereoPoint& p : pts) ++start_[cellOf(p.uv_left) + 1];
     for (std::size_t c = 0; c < cells; ++c) start_[c + 1] += start_[c];
+    reserveWithHeadroom(items_, pts.size());
     items_.resize(pts.size());
     // start_[c] doubles as the fill cursor of cell c, then is shifted back.
     for (std::size_t i = 0; i < pts.size(); ++i)
@@ -93,6 +95,10 @@ void matchTemporal(const StereoFeatures& prev, const StereoFeatures& curr, const
   std::vector<float>& second = ws.second;
   std::vector<int>& best_prev_of_curr = ws.best_prev_of_curr;
   std::vector<float>& best_prev_dist = ws.best_prev_dist;
+  reserveWithHeadroom(best, prev.points.size());
+  reserveWithHeadroom(second, prev.points.size());
+  reserveWithHeadroom(best_prev_of_curr, curr.points.size());
+  reserveWithHeadroom(best_prev_dist, curr.points.size());
   best.assign(prev.points.size(), TemporalMatch{});
   second.assign(prev.points.size(), std::numeric_limits<float>::max());
   best_prev_of_curr.assign(curr.points.size(), -1);
@@ -139,7 +145,7 @@ void matchTemporal(const StereoFeatures& prev, const StereoFeatures& curr, const
       for (std::size_t j = 0; j < curr.points.size(); ++j) consider(static_cast<int>(j));
     }
   }
-  out.reserve(prev.points.size());
+  reserveWithHeadroom(out, prev.points.size());
   for (std::size_t i = 0; i < best.size(); ++i) {
     const TemporalMatch& m = best[i];
     if (m.curr < 0 || m.distance > max_dist) continue;

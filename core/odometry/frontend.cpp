@@ -317,12 +317,13 @@ void suppressSnow(const cv::Mat& in, cv::Mat& out, const SnowFilterParams& param
 
 Frontend::Frontend(camera::StereoRectifier rectifier, const features::FeatureParams& feature_params,
                    const matching::StereoMatchParams& stereo_params, const IlluminationParams& illumination,
-                   const SnowFilterParams& snow)
+                   const SnowFilterParams& snow, const RippleNotchParams& ripple)
     : rectifier_(std::move(rectifier)),
       extractor_(feature_params),
       stereo_params_(stereo_params),
       illumination_(illumination),
-      snow_(snow) {}
+      snow_(snow),
+      ripple_(ripple) {}
 
 void Frontend::rectify(const StereoFrame& frame, cv::Mat& left_rect, cv::Mat& right_rect) const {
   rectifier_.rectify(frame.left, frame.right, left_rect, right_rect);
@@ -333,6 +334,11 @@ void Frontend::rectify(const StereoFrame& frame, cv::Mat& left_rect, cv::Mat& ri
   if (illumination_.enabled) {
     normalizeIllumination(left_rect, left_rect, illumination_);
     normalizeIllumination(right_rect, right_rect, illumination_);
+  }
+  if (ripple_.enabled) {
+    RippleNotch notch(ripple_);
+    notch.apply(left_rect, left_rect);
+    notch.apply(right_rect, right_rect);
   }
 }
 
@@ -351,6 +357,11 @@ void Frontend::rectifySide(int cam, const StereoFrame& frame, FrontendWorkspace&
   }
   if (illumination_.enabled)
     normalizeIllumination(rect, rect, illumination_, cam == 0 ? ws.illumination : ws.illumination_right);
+  if (ripple_.enabled) {
+    RippleNotch& notch = cam == 0 ? ws.ripple : ws.ripple_right;
+    if (!notch.params().enabled) notch = RippleNotch(ripple_);
+    notch.apply(rect, rect);
+  }
 }
 
 features::Features Frontend::detect(const cv::Mat& rectified, double threshold) const {

@@ -14,6 +14,7 @@
 #include "core/features/feature_extractor.hpp"
 #include "core/matching/stereo_matcher.hpp"
 #include "core/matching/temporal_matcher.hpp"
+#include "core/odometry/ripple_notch.hpp"
 
 namespace seavio::odometry {
 
@@ -126,6 +127,7 @@ struct FrontendWorkspace {
   /// The right image's filter buffers, so that its side can be rectified on another thread.
   SnowFilter snow_right;
   IlluminationScratch illumination_right;
+  RippleNotch ripple, ripple_right;  ///< set to the frontend's parameters on first use
   matching::StereoMatchWorkspace stereo;
   /// SURF's buffers, one per image side: the daemon describes left and right at once.
   features::SurfWorkspace surf_left, surf_right;
@@ -135,7 +137,7 @@ class Frontend {
  public:
   Frontend(camera::StereoRectifier rectifier, const features::FeatureParams& feature_params,
            const matching::StereoMatchParams& stereo_params, const IlluminationParams& illumination = {},
-           const SnowFilterParams& snow = {});
+           const SnowFilterParams& snow = {}, const RippleNotchParams& ripple = {});
 
   const camera::RectifiedRig& rig() const { return rectifier_.rig(); }
   const camera::StereoRectifier& rectifier() const { return rectifier_; }
@@ -176,6 +178,7 @@ class Frontend {
   matching::StereoMatchParams stereo_params_;
   IlluminationParams illumination_;
   SnowFilterParams snow_;
+  RippleNotchParams ripple_;
 };
 
 }  // namespace seavio::odometry

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/common/capacity.hpp"
 #include "core/common/se3.hpp"
 #include "core/common/stage_timer.hpp"
 #include "core/odometry/chain_covariance.hpp"
@@ -92,7 +93,7 @@ GlobalRefinerParams globalRefinerParams(const OdometryParams& p) {
 
 Odometry::Odometry(camera::StereoRectifier rectifier, const imu::ImuNoise& imu_noise, const OdometryParams& params,
                    NowNsFn now)
-    : frontend_(std::move(rectifier), params.features, params.stereo, params.illumination, params.snow),
+    : frontend_(std::move(rectifier), params.features, params.stereo, params.illumination, params.snow, params.ripple_notch),
       imu_noise_(imu_noise),
       params_(params),
       now_(std::move(now)),
@@ -355,7 +356,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   std::vector<geometry::QuadMatch>& quads = work_.quads;
   const auto toQuads = [&] {
     quads.clear();
-    quads.reserve(temporal.size());
+    reserveWithHeadroom(quads, temporal.size());
     for (const auto& m : temporal) {
       const auto& a = ref_features->points[static_cast<std::size_t>(m.prev)];
       const auto& b = frame.stereo.points[static_cast<std::size_t>(m.curr)];
@@ -457,7 +458,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   // --- III-D/E: ICP against the previous frame (local) or the map near the prediction (global).
   std::vector<Eigen::Vector3f>& data = work_.cloud;
   data.clear();
-  data.reserve(frame.stereo.points.size());
+  reserveWithHeadroom(data, frame.stereo.points.size());
   for (const auto& sp : frame.stereo.points) data.push_back(sp.p_R0);
   // Global mode: how far the map moved the frame off its odometry. A correction is not
   // motion, so it stays out of the speed check and the velocity.
@@ -469,7 +470,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   if (vision_ok) {
     std::vector<std::pair<int, int>>& seeds = work_.seeds;
     seeds.clear();
-    seeds.reserve(ransac.inliers.size());
+    reserveWithHeadroom(seeds, ransac.inliers.size());
     if (params_.mode == Mode::kLocal) {
       std::vector<Eigen::Vector3f> model;
       model.reserve(ref_features->points.size());

@@ -68,6 +68,7 @@ struct OdometryParams {
   Prediction prediction = Prediction::kImu;
   IlluminationParams illumination;
   SnowFilterParams snow;
+  RippleNotchParams ripple_notch;
   features::FeatureParams features;
   matching::StereoMatchParams stereo;
   matching::TemporalMatchParams temporal;

@@ -267,6 +267,14 @@ void visit(V& v, odometry::OdometryParams& p) {
     v.flag("enabled", p.snow.enabled);
     v.value("kernel_px", p.snow.kernel_px, 0, 31);
   });
+  v.section("ripple_notch", [&] {
+    v.flag("enabled", p.ripple_notch.enabled);
+    v.value("min_period_px", p.ripple_notch.min_period_px, 2, 1000);
+    v.value("max_period_px", p.ripple_notch.max_period_px, 2, 1000);
+    v.value("width_fraction", p.ripple_notch.width_fraction, 0.01, 1);
+    v.value("harmonics", p.ripple_notch.harmonics, 1, 8);
+    v.value("min_peak_ratio", p.ripple_notch.min_peak_ratio, 1, 1e12);
+  });
   v.section("illumination", [&] {
     v.flag("enabled", p.illumination.enabled);
     v.value("scale", p.illumination.scale, 2, 256);

@@ -72,18 +72,19 @@ struct MatchingScene {
   }
 };
 
-/// Renders `config` into `dir` and extracts every frame's features with the default
-/// odometry front end, the detector threshold held by the count controller as in a run.
-inline MatchingScene renderScene(const simulate::SimConfig& config, const std::string& dir) {
+/// Renders `config` into `dir` and extracts every frame's features with the odometry front end
+/// of `params` (default: the default one), the detector threshold held by the count controller
+/// as in a run.
+inline MatchingScene renderScene(const simulate::SimConfig& config, const std::string& dir,
+                                 const odometry::OdometryParams& params = {}) {
   simulate::writeSequence(config, dir, true);
   MatchingScene s;
   s.dataset = drivers::loadEuroc(dir);
   std::string error;
   auto rectifier = camera::StereoRectifier::create(s.dataset.calibration, &error);
   if (!rectifier) throw std::runtime_error(dir + ": calibration unusable: " + error);
-  const odometry::OdometryParams params;
   const odometry::Frontend frontend(std::move(*rectifier), params.features, params.stereo, params.illumination,
-                                    params.snow);
+                                    params.snow, params.ripple_notch);
   s.rig = frontend.rig();
   features::FeatureCountController controller(params.features.controller);
   for (std::size_t i = 0; i < s.dataset.frames.size(); ++i) {
