@@ -359,7 +359,7 @@ void Frontend::rectifySide(int cam, const StereoFrame& frame, FrontendWorkspace&
     normalizeIllumination(rect, rect, illumination_, cam == 0 ? ws.illumination : ws.illumination_right);
   if (ripple_.enabled) {
     RippleNotch& notch = cam == 0 ? ws.ripple : ws.ripple_right;
-    if (!notch.params().enabled) notch = RippleNotch(ripple_);
+    if (notch.params() != ripple_) notch = RippleNotch(ripple_);
     notch.apply(rect, rect);
   }
 }

@@ -127,7 +127,7 @@ struct FrontendWorkspace {
   /// The right image's filter buffers, so that its side can be rectified on another thread.
   SnowFilter snow_right;
   IlluminationScratch illumination_right;
-  RippleNotch ripple, ripple_right;  ///< set to the frontend's parameters on first use
+  RippleNotch ripple, ripple_right;  ///< set to the frontend's parameters on first use (and on a change)
   matching::StereoMatchWorkspace stereo;
   /// SURF's buffers, one per image side: the daemon describes left and right at once.
   features::SurfWorkspace surf_left, surf_right;

@@ -26,6 +26,7 @@ struct RippleNotchParams {
   double width_fraction = 0.2;   ///< Gaussian notch sigma, fraction of the peak frequency
   int harmonics = 2;             ///< notches at 1..harmonics x the peak
   double min_peak_ratio = 100.0; ///< peak power over the annulus median power to call it ripples
+  bool operator==(const RippleNotchParams&) const = default;
 };
 
 /// What the notch found in one image.

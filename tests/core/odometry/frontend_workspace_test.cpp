@@ -207,6 +207,44 @@ TEST(FrontendWorkspaceReuse, FramesIntoReusedBuffersEqualFreshFrames) {
   }
 }
 
+TEST(FrontendWorkspaceReuse, RippleNotchFollowsTheFrontendsParameters) {
+  // GIVEN a rippled frame and three front ends: the default notch, one whose peak threshold no
+  // image reaches, and none
+  const StereoFrame& frame = clip().frames[3];
+  std::string error;
+  auto frontendWith = [&](const RippleNotchParams& ripple) {
+    auto rect = camera::StereoRectifier::create(clip().calibration, &error);
+    EXPECT_TRUE(rect) << error;
+    return Frontend(std::move(*rect), features::FeatureParams{}, matching::StereoMatchParams{}, IlluminationParams{},
+                    SnowFilterParams{}, ripple);
+  };
+  RippleNotchParams never, off;
+  never.min_peak_ratio = 1e12;
+  off.enabled = false;
+  const Frontend notching = frontendWith(RippleNotchParams{}), unreached = frontendWith(never),
+                 plain = frontendWith(off);
+  // WHEN each rectifies it through one workspace (its notch made with the first front end's
+  // parameters) and through the one-shot path
+  FrontendWorkspace ws;
+  cv::Mat l, r;
+  auto viaWorkspace = [&](const Frontend& f) {
+    f.rectify(frame, ws);
+    return std::make_pair(ws.left_rect.clone(), ws.right_rect.clone());
+  };
+  const auto notched = viaWorkspace(notching);
+  const auto unreached_ws = viaWorkspace(unreached);
+  const auto plain_ws = viaWorkspace(plain);
+  // THEN the workspace's notch takes each front end's parameters: the unreachable threshold
+  // leaves the images as without the notch, and the default notch changes them
+  EXPECT_TRUE(sameMat(unreached_ws.first, plain_ws.first));
+  EXPECT_TRUE(sameMat(unreached_ws.second, plain_ws.second));
+  EXPECT_FALSE(sameMat(notched.first, plain_ws.first));
+  // AND the one-shot path gives the workspace's images
+  notching.rectify(frame, l, r);
+  EXPECT_TRUE(sameMat(l, notched.first));
+  EXPECT_TRUE(sameMat(r, notched.second));
+}
+
 TEST(OdometryWorkspaceReuse, ProcessTracksExactlyLikeFreshFrontendFrames) {
   std::string error;
   auto rect_a = camera::StereoRectifier::create(clip().calibration, &error);
