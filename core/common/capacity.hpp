@@ -13,4 +13,11 @@ void reserveWithHeadroom(Vector& v, std::size_t n) {
   if (v.capacity() < n) v.reserve(n + n / 2);
 }
 
+/// `v.resize(n)` on a buffer with headroom (reserveWithHeadroom).
+template <class Vector>
+void resizeWithHeadroom(Vector& v, std::size_t n) {
+  reserveWithHeadroom(v, n);
+  v.resize(n);
+}
+
 }  // namespace seavio

@@ -4,6 +4,7 @@
 #include <limits>
 #include <numeric>
 
+#include "core/common/capacity.hpp"
 #include "core/matching/descriptor_distance.hpp"
 
 namespace seavio::matching {
@@ -47,11 +48,11 @@ void matchStereo(const std::vector<cv::KeyPoint>& left, const cv::Mat& left_desc
 
   // Right keypoints sorted by row so each left keypoint scans only a thin band.
   std::vector<int>& by_row = ws.by_row;
-  by_row.resize(right.size());
+  resizeWithHeadroom(by_row, right.size());
   std::iota(by_row.begin(), by_row.end(), 0);
   std::sort(by_row.begin(), by_row.end(), [&](int a, int b) { return right[a].pt.y < right[b].pt.y; });
   std::vector<float>& rows = ws.rows;
-  rows.resize(by_row.size());
+  resizeWithHeadroom(rows, by_row.size());
   for (std::size_t i = 0; i < by_row.size(); ++i) rows[i] = right[by_row[i]].pt.y;
 
   auto candidates = [&](float y) {

@@ -9,6 +9,7 @@
 #include <emmintrin.h>  // baseline on x86-64
 #endif
 
+#include "core/common/capacity.hpp"
 #include "core/common/stage_timer.hpp"
 #include "core/features/mat_rows.hpp"
 
@@ -397,7 +398,7 @@ void Frontend::matchStereo(const features::Features& left, const features::Featu
                         stereo_params_, ws.stereo, out.points);
   const int n = static_cast<int>(out.points.size());
   features::fitRows(out.descriptors, n, left.descriptors.cols, left.descriptors.type());
-  out.laplacian_sign.resize(out.points.size());
+  resizeWithHeadroom(out.laplacian_sign, out.points.size());
   for (std::size_t i = 0; i < out.points.size(); ++i) {
     const int l = out.points[i].left_index;
     left.descriptors.row(l).copyTo(out.descriptors.row(static_cast<int>(i)));

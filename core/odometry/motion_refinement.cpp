@@ -4,6 +4,7 @@
 #include <limits>
 #include <vector>
 
+#include "core/common/capacity.hpp"
 #include "core/common/se3.hpp"
 
 namespace seavio::odometry {
@@ -134,8 +135,8 @@ MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<c
 
   std::vector<Eigen::Vector3d>& points = ws.points;
   std::vector<Eigen::Vector3d>& trial_points = ws.trial_points;
-  points.resize(obs.size());
-  trial_points.resize(obs.size());
+  resizeWithHeadroom(points, obs.size());
+  resizeWithHeadroom(trial_points, obs.size());
   for (std::size_t j = 0; j < obs.size(); ++j) points[j] = obs[j].X;
   Eigen::Isometry3d T = T_prev_curr_init;
   double sq_sum = 0;
@@ -148,9 +149,9 @@ MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<c
   std::vector<Eigen::Matrix3d>& Hll_inv = ws.Hll_inv;
   std::vector<Eigen::Matrix<double, 6, 3>>& Hpl = ws.Hpl;
   std::vector<Eigen::Vector3d>& gl = ws.gl;
-  Hll_inv.resize(obs.size());
-  Hpl.resize(obs.size());
-  gl.resize(obs.size());
+  resizeWithHeadroom(Hll_inv, obs.size());
+  resizeWithHeadroom(Hpl, obs.size());
+  resizeWithHeadroom(gl, obs.size());
   // Left perturbation T = exp(d) T, d = (rotation, translation) in the previous camera:
   // p = T^-1 exp(-d) X gives dp/d(rot) = R^T [X]x, dp/d(trans) = -R^T, dp/dX = R^T.
   auto buildSystem = [&](double damping) {
