@@ -24,7 +24,7 @@ struct RippleNotchParams {
   double min_period_px = 5.0;    ///< periods searched for the peak: [min, max] [px]
   double max_period_px = 40.0;
   double width_fraction = 0.2;   ///< Gaussian notch sigma, fraction of the peak frequency
-  int harmonics = 2;             ///< notches at 1..harmonics x the peak
+  int harmonics = 3;             ///< notches at 1..harmonics x the peak
   double min_peak_ratio = 100.0; ///< peak power over the annulus median power to call it ripples
   bool operator==(const RippleNotchParams&) const = default;
 };
