@@ -23,6 +23,28 @@ void GravityBiasObserver::reset() {
   last_pair_.reset();
 }
 
+void GravityBiasObserver::moveChain(const Eigen::Isometry3d& delta_W) {
+  const Eigen::Matrix3d dR = delta_W.linear();
+  const double d_heading = heading(dR);
+  auto move = [&](Window& w) {
+    w.p0_W = delta_W * w.p0_W;
+    w.p1_W = delta_W * w.p1_W;
+    w.I1 = dR * w.I1;
+    w.I2 = dR * w.I2;
+    w.R1_W_B = dR * w.R1_W_B;
+    w.heading0 += d_heading;
+    w.heading1 = heading(w.R1_W_B);
+  };
+  if (open_) move(*open_);
+  if (last_closed_) move(*last_closed_);
+  if (last_pair_) {
+    // m_B = R^T ((J - dV) / weight + g): J and dV turn with the frame, gravity does not.
+    last_pair_->m_B += last_pair_->R_W_B.transpose() * (dR.transpose() - Eigen::Matrix3d::Identity()) * gravityW();
+    last_pair_->R_W_B = dR * last_pair_->R_W_B;
+    last_pair_->heading_first += d_heading;
+  }
+}
+
 std::optional<Eigen::Vector3d> GravityBiasObserver::add(int64_t t0_ns, const Eigen::Vector3d& p0_W, int64_t t1_ns,
                                                         const Eigen::Vector3d& p1_W, const Eigen::Matrix3d& R_mid_W_B,
                                                         const Eigen::Vector3d& f_B, const Eigen::Matrix3d& R1_W_B) {
@@ -69,6 +91,7 @@ std::optional<Eigen::Vector3d> GravityBiasObserver::add(int64_t t0_ns, const Eig
     PairResidual pair;
     pair.t_ns = closed.t0_ns;
     pair.m_B = a.R1_W_B.transpose() * r_W;
+    pair.R_W_B = a.R1_W_B;
     pair.heading_first = a.heading0;
     if (last_pair_) {
       // Three windows: the previous pair's first start, and the ends of the three windows.

@@ -19,6 +19,7 @@
 #include <optional>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 namespace seavio::imu {
 
@@ -41,8 +42,15 @@ class GravityBiasObserver {
   std::optional<Eigen::Vector3d> add(int64_t t0_ns, const Eigen::Vector3d& p0_W, int64_t t1_ns,
                                      const Eigen::Vector3d& p1_W, const Eigen::Matrix3d& R_mid_W_B,
                                      const Eigen::Vector3d& f_B, const Eigen::Matrix3d& R1_W_B);
-  /// Forget everything (vision lost, the chain moved by a correction).
+  /// Forget everything (vision lost, a gap).
   void reset();
+  /// A map correction moved the chain rigidly by `delta_W` (corrected <- uncorrected world):
+  /// the stored windows are re-expressed in the corrected frame, so that the next interval,
+  /// which ends at a corrected pose, still chains on. The correction's tilt is not a gyro
+  /// bias: the last pair's residual is re-expressed too, so the next rate does not see the
+  /// step. (Resetting instead froze the tilt rates wherever the map corrects every frame, as
+  /// it does at 1 Hz once the survey comes back over mapped ground.)
+  void moveChain(const Eigen::Isometry3d& delta_W);
 
  private:
   struct Window {
@@ -56,6 +64,7 @@ class GravityBiasObserver {
   struct PairResidual {
     int64_t t_ns = 0;               ///< the pair's centre (the boundary between its windows)
     Eigen::Vector3d m_B = Eigen::Vector3d::Zero();  ///< tilt error x g + accelerometer bias, body
+    Eigen::Matrix3d R_W_B = Eigen::Matrix3d::Identity();  ///< the attitude m_B was turned into B with
     double heading_first = 0;       ///< heading at the start of its first window
   };
   GravityBiasObserverParams params_;

@@ -731,12 +731,21 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
 
   if (params_.gyro_bias_gravity_window_s > 0) {
     // Tilt rates of the gyro bias from gravity (core/imu/gravity_bias_observer.hpp): only over
-    // contiguous visual frames whose chain no correction moved, and once the still start ended.
-    if (r.source == PoseSource::kVision && have_imu && !interval.empty() && !still_start_ && !map_delta_W) {
+    // contiguous visual frames, and once the still start ended. A map correction of this frame
+    // moves the chain: the observer's windows and this interval's start follow it into the
+    // corrected frame (the interval ends at the corrected pose).
+    if (r.source == PoseSource::kVision && have_imu && !interval.empty() && !still_start_) {
+      Eigen::Vector3d p0_W = p_start_W;
+      Eigen::Matrix3d R0_W_B = R_start_W_B;
+      if (map_delta_W) {
+        gravity_bias_.moveChain(*map_delta_W);
+        p0_W = *map_delta_W * p0_W;
+        R0_W_B = map_delta_W->linear() * R0_W_B;
+      }
       const Eigen::Vector3d f_B = meanSpecificForce(interval, state_.accel_bias_m_s2);
-      const Eigen::Matrix3d R_mid = midAttitude(R_start_W_B, state_.T_W_B.rotation());
-      if (const auto eps = gravity_bias_.add(t_start_ns, p_start_W, state_.t_ns, state_.T_W_B.translation(), R_mid,
-                                             f_B, state_.T_W_B.rotation()))
+      const Eigen::Matrix3d R_mid = midAttitude(R0_W_B, state_.T_W_B.rotation());
+      if (const auto eps = gravity_bias_.add(t_start_ns, p0_W, state_.t_ns, state_.T_W_B.translation(), R_mid, f_B,
+                                             state_.T_W_B.rotation()))
         state_.gyro_bias_rad_s += params_.gyro_bias_gravity_gain * *eps;
     } else {
       gravity_bias_.reset();
