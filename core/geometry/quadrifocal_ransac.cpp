@@ -145,11 +145,11 @@ bool QuadrifocalRansac::withinPrior(const Eigen::Isometry3d& T,
   return true;
 }
 
-void QuadrifocalRansac::selectInliers(const Eigen::Isometry3d& T_prev_curr,
+void QuadrifocalRansac::selectInliers(const Eigen::Isometry3d& T_prev_curr, double threshold_px,
                                       std::vector<uint32_t>& out) const {
   out.clear();
   const Eigen::Isometry3d T_curr_prev = T_prev_curr.inverse();
-  const double th2 = params_.inlier_threshold_px * params_.inlier_threshold_px;
+  const double th2 = threshold_px * threshold_px;
   for (uint32_t i : usable_)
     if (transferError2(i, T_prev_curr, T_curr_prev) <= th2) out.push_back(i);
 }
@@ -171,17 +171,7 @@ void QuadrifocalRansac::estimate(std::span<const QuadMatch> matches,
   result = RansacResult{};
   const bool prior_ok = finite(T_prev_curr_prior);
   result.T_prev_curr = prior_ok ? T_prev_curr_prior : Eigen::Isometry3d::Identity();
-  matches_ = matches;
-  const std::size_t n = matches.size();
-  p_prev_.resize(n);
-  p_curr_.resize(n);
-  valid_.assign(n, 0);
-  usable_.clear();
-  for (std::size_t i = 0; i < n; ++i) {
-    valid_[i] = triangulate(matches[i].left_prev, matches[i].right_prev, p_prev_[i]) &&
-                triangulate(matches[i].left_curr, matches[i].right_curr, p_curr_[i]);
-    if (valid_[i]) usable_.push_back(uint32_t(i));
-  }
+  triangulateAll(matches);
   const int need = std::max(3, params_.min_inliers);
   if (int(usable_.size()) < need) {
     result.status = RansacStatus::kTooFewMatches;
@@ -251,17 +241,53 @@ void QuadrifocalRansac::estimate(std::span<const QuadMatch> matches,
     return;
   }
 
+  finish(matches, best_T, std::move(inliers), params_.inlier_threshold_px, result);
+}
+
+void QuadrifocalRansac::triangulateAll(std::span<const QuadMatch> matches) {
+  matches_ = matches;
+  const std::size_t n = matches.size();
+  p_prev_.resize(n);
+  p_curr_.resize(n);
+  valid_.assign(n, 0);
+  usable_.clear();
+  for (std::size_t i = 0; i < n; ++i) {
+    valid_[i] = triangulate(matches[i].left_prev, matches[i].right_prev, p_prev_[i]) &&
+                triangulate(matches[i].left_curr, matches[i].right_curr, p_curr_[i]);
+    if (valid_[i]) usable_.push_back(uint32_t(i));
+  }
+}
+
+void QuadrifocalRansac::reselect(std::span<const QuadMatch> matches, RansacResult& result, double threshold_px) {
+  std::vector<uint32_t> inliers = std::move(result.inliers);
+  inliers.clear();
+  const Eigen::Isometry3d T = result.T_prev_curr;
+  const int iterations = result.iterations;
+  result = RansacResult{};
+  result.T_prev_curr = T;
+  result.iterations = iterations;
+  if (!finite(T)) {
+    result.inliers = std::move(inliers);
+    return;
+  }
+  triangulateAll(matches);
+  finish(matches, T, std::move(inliers), threshold_px > 0 ? threshold_px : params_.inlier_threshold_px, result);
+}
+
+void QuadrifocalRansac::finish(std::span<const QuadMatch> matches, const Eigen::Isometry3d& T_start,
+                               std::vector<uint32_t> inliers, double threshold_px, RansacResult& result) {
   // Refine, re-select with the better motion, refine again (section III-C).
-  Eigen::Isometry3d T = best_T;
+  const int need = std::max(3, params_.min_inliers);
+  Eigen::Isometry3d T = T_start;
   inliers.reserve(usable_.size());
-  selectInliers(T, inliers);
+  selectInliers(T, threshold_px, inliers);
   double rms = 0;
   Eigen::Matrix<double, 6, 6> cov = Eigen::Matrix<double, 6, 6>::Identity();
   for (int round = 0; round < 2; ++round) {
     Eigen::Isometry3d T_ref = T;
     if (int(inliers.size()) < need || !refine(matches, inliers, T_ref, rms, cov)) break;
     T = T_ref;
-    selectInliers(T, inliers);
+    selectInliers(T, threshold_px, inliers);
   }
   if (int(inliers.size()) < need || !finite(T) || !cov.allFinite() || !std::isfinite(rms)) {
     result.status = RansacStatus::kNoConsensus;

@@ -74,6 +74,14 @@ class QuadrifocalRansac {
   void estimate(std::span<const QuadMatch> matches, const Eigen::Isometry3d& T_prev_curr_prior,
                 std::mt19937& rng, RansacResult& out);
 
+  /// Inliers re-selected under `result`'s motion (a successful estimate() on these matches,
+  /// or on earlier, coarser positions of the same matches) and the motion refined over them,
+  /// as estimate() finishes. For matches whose pixels were re-localised after RANSAC (patch
+  /// refinement): ones SURF's detection noise kept outside the threshold come back in.
+  /// `threshold_px` > 0 replaces the inlier threshold for this selection (refined pixels are
+  /// held to a tighter one). On failure `result` reports kNoConsensus with no inliers.
+  void reselect(std::span<const QuadMatch> matches, RansacResult& result, double threshold_px = 0);
+
   const QuadRansacParams& params() const { return params_; }
 
  private:
@@ -83,6 +91,11 @@ class QuadrifocalRansac {
   };
   bool triangulate(const Eigen::Vector2f& left, const Eigen::Vector2f& right,
                    Eigen::Vector3d& p) const;
+  /// Both pairs' triangulations of every match; the usable ones listed in usable_.
+  void triangulateAll(std::span<const QuadMatch> matches);
+  /// Select, refine, re-select (twice) from motion T; the outcome into `result`.
+  void finish(std::span<const QuadMatch> matches, const Eigen::Isometry3d& T, std::vector<uint32_t> inliers,
+              double threshold_px, RansacResult& result);
   /// Largest of the four squared transfer errors of match i under T_prev_curr [px^2]; +inf
   /// if unusable.
   double transferError2(std::size_t i, const Eigen::Isometry3d& T_prev_curr,
@@ -91,7 +104,7 @@ class QuadrifocalRansac {
   /// best cost of `bound`.
   Scored score(const Eigen::Isometry3d& T_prev_curr, double bound) const;
   bool withinPrior(const Eigen::Isometry3d& T, const Eigen::Isometry3d& prior) const;
-  void selectInliers(const Eigen::Isometry3d& T_prev_curr, std::vector<uint32_t>& out) const;
+  void selectInliers(const Eigen::Isometry3d& T_prev_curr, double threshold_px, std::vector<uint32_t>& out) const;
   /// Levenberg-Marquardt over motion and points; returns false if nothing usable came out.
   bool refine(std::span<const QuadMatch> matches, const std::vector<uint32_t>& inliers,
               Eigen::Isometry3d& T_prev_curr, double& rms_px,

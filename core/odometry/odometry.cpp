@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 
 #include "core/common/capacity.hpp"
 #include "core/common/se3.hpp"
@@ -387,6 +388,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
                 static_cast<int>(ransac.inliers.size()) >= params_.min_inliers && finitePose(ransac.T_prev_curr);
   }
   r.quality.temporal_matches = static_cast<int>(temporal.size());
+  bool rescued = false;  // `ransac` came from the rescue RANSAC (its threshold)
   const auto rescue = [&] {
     if (static_cast<int>(quads.size()) < params_.rescue_min_inliers) return false;
     geometry::RansacResult second = rescue_ransac_.estimate(quads, T_ref_curr_pred, rng_);
@@ -394,6 +396,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
         static_cast<int>(second.inliers.size()) < params_.rescue_min_inliers || !finitePose(second.T_prev_curr))
       return false;
     ransac = std::move(second);
+    rescued = true;
     return true;
   };
   if (!vision_ok && params_.rescue_inlier_threshold_px > 0) {
@@ -409,14 +412,30 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
       vision_ok = rescue();
     }
   }
-  r.quality.ransac_inliers = static_cast<int>(ransac.inliers.size());
   if (vision_ok && params_.patch_refinement) {
     const cv::Mat& ref_left = on_keyframe ? keyframe_->left_image : prev.features.left_image;
     const cv::Mat& ref_right = on_keyframe ? keyframe_->right_image : prev.features.right_image;
-    refineInlierPatches(*ref_features, ref_left, ref_right, frame, temporal, ransac.T_prev_curr, ransac.inliers,
-                        quads);
+    if (params_.patch_reselect && static_cast<int>(ransac.inliers.size()) >= params_.patch_reselect_min_inliers) {
+      std::vector<uint32_t>& all = work_.patch_indices;
+      resizeWithHeadroom(all, quads.size());
+      std::iota(all.begin(), all.end(), 0u);
+      refinePatches(*ref_features, ref_left, ref_right, frame, temporal, ransac.T_prev_curr, all, quads);
+      // The same RANSAC (threshold) that found the motion judges the refined pixels. If too
+      // few pass, the first selection stands: its inliers were refined just as before.
+      geometry::RansacResult& again = work_.reselected;
+      again.T_prev_curr = ransac.T_prev_curr;
+      again.iterations = ransac.iterations;
+      (rescued ? rescue_ransac_ : ransac_).reselect(quads, again, params_.patch_reselect_threshold_px);
+      const int need = rescued ? params_.rescue_min_inliers : params_.min_inliers;
+      if (again.status == geometry::RansacStatus::kOk && static_cast<int>(again.inliers.size()) >= need &&
+          finitePose(again.T_prev_curr))
+        std::swap(ransac, again);
+    } else {
+      refinePatches(*ref_features, ref_left, ref_right, frame, temporal, ransac.T_prev_curr, ransac.inliers, quads);
+    }
   }
 
+  r.quality.ransac_inliers = static_cast<int>(ransac.inliers.size());
   Eigen::Isometry3d T_prev_curr = vision_ok ? ransac.T_prev_curr : T_ref_curr_pred;
   Matrix6d rel_cov = vision_ok ? Matrix6d(ransac.covariance) : pred_cov;
   if (vision_ok && params_.use_rotation_prior) {
@@ -833,18 +852,18 @@ void Odometry::newKeyframe(const FrameFeatures& frame, const Eigen::Isometry3d& 
   keyframe_ = std::move(k);
 }
 
-void Odometry::refineInlierPatches(const matching::StereoFeatures& ref_features, const cv::Mat& ref_left,
-                                   const cv::Mat& ref_right, const FrameFeatures& frame,
-                                   const std::vector<matching::TemporalMatch>& temporal,
-                                   const Eigen::Isometry3d& T_ref_curr, const std::vector<uint32_t>& inliers,
-                                   std::vector<geometry::QuadMatch>& quads) const {
+void Odometry::refinePatches(const matching::StereoFeatures& ref_features, const cv::Mat& ref_left,
+                             const cv::Mat& ref_right, const FrameFeatures& frame,
+                             const std::vector<matching::TemporalMatch>& temporal,
+                             const Eigen::Isometry3d& T_ref_curr, std::span<const uint32_t> indices,
+                             std::vector<geometry::QuadMatch>& quads) const {
   if (ref_left.empty() || ref_right.empty() || frame.left_image.empty() || frame.right_image.empty()) return;
   // A reference offset d appears in the current image turned by the motion's roll about the
   // optical axis and scaled by the depth ratio (a near-nadir view of a near-flat floor).
   const Eigen::Matrix3d R_curr_ref = T_ref_curr.rotation().transpose();
   const double angle = std::atan2(R_curr_ref(1, 0) - R_curr_ref(0, 1), R_curr_ref(0, 0) + R_curr_ref(1, 1));
   const Eigen::Matrix2f turn = Eigen::Rotation2Df(static_cast<float>(angle)).toRotationMatrix();
-  for (const uint32_t i : inliers) {
+  for (const uint32_t i : indices) {
     if (i >= quads.size() || i >= temporal.size()) continue;
     geometry::QuadMatch& q = quads[i];
     const auto& a = ref_features.points[static_cast<std::size_t>(temporal[i].prev)];

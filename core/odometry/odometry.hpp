@@ -88,6 +88,16 @@ struct OdometryParams {
   /// images (core/matching/patch_alignment.hpp), so every image of a point is measured
   /// against one anchor instead of four independent SURF detections.
   bool patch_refinement = true;
+  /// With patch_refinement: every temporal match is refined, not only RANSAC's inliers, and
+  /// the inliers are re-selected under RANSAC's motion from the refined pixels. At 1 Hz over
+  /// half the matches miss the threshold by SURF's localisation noise alone (docs/benchmarks.md,
+  /// "Inliers re-selected after patch refinement").
+  bool patch_reselect = true;
+  /// The re-selection's transfer-error threshold [px]; <= 0: the RANSAC's own.
+  double patch_reselect_threshold_px = 0;
+  /// Re-select only when RANSAC found at least this many inliers: a motion from fewer is
+  /// itself uncertain enough to let wrong matches in.
+  int patch_reselect_min_inliers = 30;
   matching::PatchAlignParams patch;
   int min_inliers = 15;                      ///< fewer RANSAC inliers = vision failed this frame
   /// Second chance for a frame that failed: wide-baseline matches (1 Hz frames, 1.5 m apart,
@@ -269,12 +279,12 @@ class Odometry {
   void turnChain(const Eigen::Matrix3d& R, Eigen::Isometry3d& T_W_R0);
   /// Makes the frame just tracked (pose `T_W_R0`, the current pose covariance) the keyframe.
   void newKeyframe(const FrameFeatures& frame, const Eigen::Isometry3d& T_W_R0, int64_t t_ns);
-  /// patch_refinement: the RANSAC inliers of `quads` (temporal matches `temporal` of
+  /// patch_refinement: the matches `indices` of `quads` (temporal matches `temporal` of
   /// `ref_features` against `frame`) aligned on the reference left image's patches.
-  void refineInlierPatches(const matching::StereoFeatures& ref_features, const cv::Mat& ref_left,
+  void refinePatches(const matching::StereoFeatures& ref_features, const cv::Mat& ref_left,
                            const cv::Mat& ref_right, const FrameFeatures& frame,
                            const std::vector<matching::TemporalMatch>& temporal, const Eigen::Isometry3d& T_ref_curr,
-                           const std::vector<uint32_t>& inliers, std::vector<geometry::QuadMatch>& quads) const;
+                           std::span<const uint32_t> indices, std::vector<geometry::QuadMatch>& quads) const;
   /// Deferred mode: the request for the frame just tracked.
   void makeGlobalRequest(const FrameFeatures& frame, const Eigen::Isometry3d& T_W_R0, const OdometryResult& r,
                          bool first_frame);
@@ -341,6 +351,8 @@ class Odometry {
     std::vector<matching::TemporalMatch> temporal;
     std::vector<geometry::QuadMatch> quads;
     geometry::RansacResult ransac;
+    geometry::RansacResult reselected;     ///< patch_reselect's outcome, swapped in when usable
+    std::vector<uint32_t> patch_indices;   ///< patch_reselect: every temporal match
     MotionRefinementWorkspace refinement;
     std::vector<Eigen::Vector3f> cloud;     ///< the frame's stereo points for ICP / the map
     std::vector<std::pair<int, int>> seeds;  ///< ICP's descriptor seeds

@@ -269,5 +269,67 @@ TEST(QuadrifocalRansac, ReusedResultEqualsAFreshOne) {
   }
 }
 
+TEST(QuadrifocalRansac, ReselectTakesBackMatchesOnceTheirPixelsAreRefined) {
+  // GIVEN 100 matches, 30% wrong, with SURF-like localisation noise (0.5 px per coordinate, so
+  // the largest of four transfer errors often exceeds the 1.5 px threshold), and the same
+  // matches as patch refinement leaves the true ones (0.1 px; the wrong ones unchanged)
+  const auto rig = makeRig();
+  const Eigen::Isometry3d T = makeMotion();
+  QuadrifocalRansac ransac(rig, {});
+  std::vector<double> err_first, err_reselected;
+  for (uint32_t seed = 1; seed <= 9; ++seed) {
+    std::mt19937 coarse_rng(seed), fine_rng(seed);
+    const auto coarse = makeScene(rig, T, 100, 0.3, 0.5, coarse_rng);
+    const auto fine = makeScene(rig, T, 100, 0.3, 0.1, fine_rng);
+    ASSERT_EQ(coarse.is_inlier, fine.is_inlier);  // one scene, two noise levels
+    std::vector<QuadMatch> refined = coarse.matches;
+    for (std::size_t i = 0; i < refined.size(); ++i)
+      if (coarse.is_inlier[i]) refined[i] = fine.matches[i];
+    std::mt19937 rng(seed);
+    RansacResult r = ransac.estimate(coarse.matches, Eigen::Isometry3d::Identity(), rng);
+    ASSERT_EQ(r.status, RansacStatus::kOk) << "seed " << seed;
+    const std::size_t first_inliers = r.inliers.size();
+    err_first.push_back(rotationError(r.T_prev_curr, T));
+    // WHEN the inliers are re-selected from the refined pixels under RANSAC's motion
+    ransac.reselect(refined, r);
+    // THEN the true matches the noise had kept out come back, the wrong ones stay out
+    ASSERT_EQ(r.status, RansacStatus::kOk) << "seed " << seed;
+    int true_in = 0, false_in = 0;
+    for (uint32_t i : r.inliers) (coarse.is_inlier[i] ? true_in : false_in)++;
+    EXPECT_LT(first_inliers, 60u) << "seed " << seed;  // the noise costs RANSAC matches
+    EXPECT_GE(true_in, 68) << "seed " << seed;         // of 70
+    EXPECT_EQ(false_in, 0) << "seed " << seed;
+    EXPECT_LT(r.rms_px, 0.2) << "seed " << seed;
+    EXPECT_TRUE(allFinite(r));
+    err_reselected.push_back(rotationError(r.T_prev_curr, T));
+    // AND a tighter threshold holds the refined pixels but not SURF's
+    RansacResult tight = r, coarse_tight = r;
+    ransac.reselect(refined, tight, 0.6);
+    ransac.reselect(coarse.matches, coarse_tight, 0.6);
+    EXPECT_GE(tight.inliers.size(), 66u) << "seed " << seed;
+    EXPECT_LT(coarse_tight.inliers.size(), first_inliers / 2) << "seed " << seed;
+  }
+  // AND the rotation is several times closer to the truth (medians over the seeds)
+  std::nth_element(err_first.begin(), err_first.begin() + 4, err_first.end());
+  std::nth_element(err_reselected.begin(), err_reselected.begin() + 4, err_reselected.end());
+  EXPECT_LT(err_reselected[4], err_first[4] / 3);
+}
+
+TEST(QuadrifocalRansac, ReselectFromAFailedMotionReportsNoConsensus) {
+  // GIVEN matches and a motion that explains none of them
+  const auto rig = makeRig();
+  std::mt19937 rng(3);
+  const auto scene = makeScene(rig, makeMotion(), 60, 0.0, 0.3, rng);
+  RansacResult r;
+  r.T_prev_curr = Eigen::Isometry3d(Eigen::Translation3d(1.0, 0.5, 0.0));
+  r.inliers = {1, 2, 3};
+  // WHEN re-selected
+  QuadrifocalRansac(rig, {}).reselect(scene.matches, r);
+  // THEN nothing passes: no consensus, no inliers, nothing NaN
+  EXPECT_EQ(r.status, RansacStatus::kNoConsensus);
+  EXPECT_TRUE(r.inliers.empty());
+  EXPECT_TRUE(r.T_prev_curr.matrix().allFinite());
+}
+
 }  // namespace
 }  // namespace seavio::geometry

@@ -49,7 +49,7 @@ TEST_P(PatchRefinement, BringsTheThreeOtherImagesOfAPointCloserToTheTruth) {
                             params.temporal, ws, matches);
     const Eigen::Isometry3d T_W_prev = scene.groundTruthAt(pair.prev->t_ns).T_W_B * rig.T_B_R0;
     const Eigen::Isometry3d T_W_curr = scene.groundTruthAt(pair.curr->t_ns).T_W_B * rig.T_B_R0;
-    // The reference patch turned and scaled as refineInlierPatches does, from the true motion.
+    // The reference patch turned and scaled as Odometry::refinePatches does, from the true motion.
     const Eigen::Matrix3d R = pair.T_prev_curr_true.rotation().transpose();
     const Eigen::Matrix2f turn =
         Eigen::Rotation2Df(static_cast<float>(std::atan2(R(1, 0) - R(0, 1), R(0, 0) + R(1, 1)))).toRotationMatrix();
