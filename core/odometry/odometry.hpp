@@ -281,10 +281,10 @@ class Odometry {
   void newKeyframe(const FrameFeatures& frame, const Eigen::Isometry3d& T_W_R0, int64_t t_ns);
   /// patch_refinement: the matches `indices` of `quads` (temporal matches `temporal` of
   /// `ref_features` against `frame`) aligned on the reference left image's patches.
-  void refinePatches(const matching::StereoFeatures& ref_features, const cv::Mat& ref_left,
-                           const cv::Mat& ref_right, const FrameFeatures& frame,
-                           const std::vector<matching::TemporalMatch>& temporal, const Eigen::Isometry3d& T_ref_curr,
-                           std::span<const uint32_t> indices, std::vector<geometry::QuadMatch>& quads) const;
+  void refinePatches(const matching::StereoFeatures& ref_features, const cv::Mat& ref_left, const cv::Mat& ref_right,
+                     const FrameFeatures& frame, const std::vector<matching::TemporalMatch>& temporal,
+                     const Eigen::Isometry3d& T_ref_curr, std::span<const uint32_t> indices,
+                     std::vector<geometry::QuadMatch>& quads) const;
   /// Deferred mode: the request for the frame just tracked.
   void makeGlobalRequest(const FrameFeatures& frame, const Eigen::Isometry3d& T_W_R0, const OdometryResult& r,
                          bool first_frame);
