@@ -6,6 +6,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -35,35 +36,32 @@ simulate::SimConfig shortSurvey(uint32_t seed, bool snow) {
   return c;
 }
 
-/// Renders (once) and loads a sequence.
-const drivers::Dataset& sequence(uint32_t seed, bool snow) {
-  static std::map<std::pair<uint32_t, bool>, std::unique_ptr<drivers::Dataset>> cache;
-  auto& slot = cache[{seed, snow}];
+/// Renders (once per test process) and loads the sequence `c` under the key `name`.
+const drivers::Dataset& sequence(const std::string& name, const simulate::SimConfig& c) {
+  static std::map<std::string, std::unique_ptr<drivers::Dataset>> cache;
+  auto& slot = cache[name];
   if (!slot) {
     // Per test: ctest runs each test as its own process, in parallel.
     const fs::path dir = fs::temp_directory_path() /
                          ("seavio_e2e_" + std::string(testing::UnitTest::GetInstance()->current_test_info()->name()) +
-                          "_" + std::to_string(seed) + (snow ? "_snow" : "_plain"));
-    simulate::writeSequence(shortSurvey(seed, snow), dir.string(), true);
+                          "_" + name);
+    simulate::writeSequence(c, dir.string(), true);
     slot = std::make_unique<drivers::Dataset>(drivers::loadEuroc(dir.string()));
   }
   return *slot;
 }
 
-/// Renders (once) and loads a short plain survey at 1 Hz: 1.5 m between frames, as the paper's.
+const drivers::Dataset& sequence(uint32_t seed, bool snow) {
+  return sequence(std::to_string(seed) + (snow ? "_snow" : "_plain"), shortSurvey(seed, snow));
+}
+
+/// A short plain survey at 1 Hz: 1.5 m between frames, as the paper's.
 const drivers::Dataset& oneHertzSequence() {
-  static std::unique_ptr<drivers::Dataset> slot;
-  if (!slot) {
-    simulate::SimConfig c = shortSurvey(131, false);
-    c.frames = 60;
-    c.frame_rate_hz = 1.0;
-    c.trajectory.speed_m_s = 1.5;
-    const fs::path dir = fs::temp_directory_path() /
-                         ("seavio_e2e_1hz_" + std::string(testing::UnitTest::GetInstance()->current_test_info()->name()));
-    simulate::writeSequence(c, dir.string(), true);
-    slot = std::make_unique<drivers::Dataset>(drivers::loadEuroc(dir.string()));
-  }
-  return *slot;
+  simulate::SimConfig c = shortSurvey(131, false);
+  c.frames = 60;
+  c.frame_rate_hz = 1.0;
+  c.trajectory.speed_m_s = 1.5;
+  return sequence("1hz", c);
 }
 
 struct RunResult {
