@@ -19,6 +19,10 @@ std::vector<std::string> validate(const FeatureCountControllerParams& p) {
   if (!(p.initial_threshold >= p.min_threshold && p.initial_threshold <= p.max_threshold)) {
     errors.push_back("controller.initial_threshold must lie in [min_threshold, max_threshold]");
   }
+  if (p.target_stereo_matches < 0) errors.push_back("controller.target_stereo_matches must be >= 0");
+  if (p.target_stereo_matches > 0 && p.max_count < p.target_count) {
+    errors.push_back("controller.max_count must be >= target_count");
+  }
   if (!(p.max_step_factor > 1.0) || !std::isfinite(p.max_step_factor)) {
     errors.push_back("controller.max_step_factor must be finite and > 1");
   }
@@ -35,14 +39,31 @@ FeatureCountController::FeatureCountController(const FeatureCountControllerParam
   }
 }
 
-void FeatureCountController::update(int observed_count) {
-  // An empty frame carries no magnitude information: treat it as half a feature so the log
-  // stays finite; the step clamp then lowers the threshold by the largest allowed factor.
-  const double observed = std::max(0.5, static_cast<double>(observed_count));
+namespace {
+
+/// An empty frame carries no magnitude information: it counts as half a feature so the log
+/// stays finite; the step clamp then lowers the threshold by the largest allowed factor.
+double logRatio(int observed, int target) {
+  return std::log(std::max(0.5, static_cast<double>(observed)) / target);
+}
+
+}  // namespace
+
+void FeatureCountController::step(double log_error) {
   const double max_step = std::log(params_.max_step_factor);
-  const double step =
-      std::clamp(params_.gain * std::log(observed / params_.target_count), -max_step, max_step);
+  const double step = std::clamp(params_.gain * log_error, -max_step, max_step);
   threshold_ = std::clamp(threshold_ * std::exp(step), params_.min_threshold, params_.max_threshold);
+}
+
+void FeatureCountController::update(int observed_count) { step(logRatio(observed_count, params_.target_count)); }
+
+void FeatureCountController::update(int observed_count, int stereo_matches) {
+  if (params_.target_stereo_matches <= 0) return update(observed_count);
+  // Raising the threshold needs both counts above target; more features than max_count
+  // raise it regardless.
+  const double short_of_either = std::min(logRatio(observed_count, params_.target_count),
+                                          logRatio(stereo_matches, params_.target_stereo_matches));
+  step(std::max(short_of_either, logRatio(observed_count, params_.max_count)));
 }
 
 }  // namespace seavio::features

@@ -9,6 +9,14 @@ namespace seavio::features {
 
 struct FeatureCountControllerParams {
   int target_count = 500;          ///< wanted features per image
+  /// Stereo matches wanted per frame; 0 = off. Marine snow takes a share of the features a
+  /// threshold yields (bright dots, occluded floor) that never match across the rig, so a
+  /// fixed feature count leaves a snowy frame with fewer points on the floor. When set, the
+  /// threshold is lowered past `target_count` features while the frame's stereo matches are
+  /// short of this, up to `max_count` features. Clear water, which reaches it with
+  /// `target_count` features, settles at `target_count` as without it.
+  int target_stereo_matches = 300;
+  int max_count = 1500;            ///< most features per image when chasing stereo matches
   /// Proportional gain in log space: log t += gain * log(observed / target). The count of a
   /// detector falls roughly as threshold^-alpha (alpha ~ 1 for SURF's det(H) on natural
   /// texture), so gain ~ 1 / alpha settles in one step; below that it is slower but safer.
@@ -38,11 +46,17 @@ class FeatureCountController {
 
   /// Feeds the count the current threshold produced; moves the threshold towards the target.
   void update(int observed_count);
+  /// Same, with the stereo matches the features made (target_stereo_matches): the threshold
+  /// settles where the features reach target_count or the matches target_stereo_matches,
+  /// whichever needs more features, and never past max_count features.
+  void update(int observed_count, int stereo_matches);
 
   /// Back to the initial threshold.
   void reset() { threshold_ = params_.initial_threshold; }
 
  private:
+  void step(double log_error);  ///< log t += gain * log_error, clamped
+
   FeatureCountControllerParams params_;
   double threshold_;
 };

@@ -253,8 +253,9 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   r.quality.features_right = static_cast<int>(frame.right.keypoints.size());
   r.quality.stereo_matches = static_cast<int>(frame.stereo.points.size());
   r.quality.detector_threshold = frame.detector_threshold;
-  // Paper III-B: a proportional controller holds the feature count.
-  controller_.update(static_cast<int>(frame.left.keypoints.size()));
+  // Paper III-B: a proportional controller holds the feature count (and, in snow, the stereo
+  // matches).
+  controller_.update(static_cast<int>(frame.left.keypoints.size()), r.quality.stereo_matches);
 
   // Keep IMU samples across calls so integration can interpolate at the frame boundaries.
   for (const ImuSample& s : imu)

@@ -51,13 +51,53 @@ TEST(FeatureCountController, ClampsAndSurvivesEmptyFrames) {
   EXPECT_DOUBLE_EQ(c.threshold(), 100.0) << "on target: no change";
 }
 
+TEST(FeatureCountController, ChasesStereoMatchesPastTheFeatureTargetUpToTheCap) {
+  // GIVEN a detector giving 500 features at threshold 1000 (alpha 1) and frames where a
+  // fraction of the features match across the rig: clear water, snow, a near-blind frame
+  FeatureCountControllerParams p;
+  p.target_stereo_matches = 300;
+  p.max_count = 1500;
+  const double scale = 500.0 * 1000.0;
+  struct Case {
+    double stereo_fraction;
+    int settled_features;  // max(target_count, target_stereo / fraction) capped at max_count
+  };
+  for (const Case& c : {Case{0.67, 500}, Case{0.38, 789}, Case{0.05, 1500}}) {
+    FeatureCountController controller(p);
+    FeatureCountController count_only(FeatureCountControllerParams{});
+    int n = 0, n_count_only = 0;
+    // WHEN the loop runs with both counts fed back
+    for (int k = 0; k < 30; ++k) {
+      n = modelCount(controller.threshold(), 1.0, scale);
+      controller.update(n, static_cast<int>(std::lround(c.stereo_fraction * n)));
+      n_count_only = modelCount(count_only.threshold(), 1.0, scale);
+      count_only.update(n_count_only);
+    }
+    // THEN it settles on whichever needs more features, never past the cap; the count-only
+    // loop holds target_count in every case
+    EXPECT_NEAR(n, c.settled_features, 0.02 * c.settled_features) << "fraction " << c.stereo_fraction;
+    EXPECT_NEAR(n_count_only, 500, 10);
+  }
+  // AND without a stereo target the two-count update is the count-only one
+  FeatureCountControllerParams off;
+  off.target_stereo_matches = 0;
+  FeatureCountController a(off), b(off);
+  for (int n : {0, 120, 900, 480, 5000}) {
+    a.update(n);
+    b.update(n, n / 10);
+    EXPECT_DOUBLE_EQ(a.threshold(), b.threshold());
+  }
+}
+
 TEST(FeatureCountController, RejectsBadParameters) {
   FeatureCountControllerParams p;
   p.target_count = 0;
   p.gain = -1;
   p.min_threshold = 10;
   p.max_threshold = 5;
-  EXPECT_GE(validate(p).size(), 3u);
+  p.target_stereo_matches = 100;
+  p.max_count = 0;  // below target_count
+  EXPECT_GE(validate(p).size(), 4u);
   EXPECT_THROW(FeatureCountController{p}, std::invalid_argument);
 }
 

@@ -156,6 +156,53 @@ TEST(LocalOdometry, MarineSnowCostsLittle) {
   EXPECT_LT(snow.metrics.mean_error_m, std::max(1.2 * plain.metrics.mean_error_m, plain.metrics.mean_error_m + 0.02));
 }
 
+TEST(LocalOdometry, SnowGetsTheFeaturesItNeedsForClearWatersStereoMatches) {
+  // GIVEN the same short survey in clear water and in snow, where the dots and the floor they
+  // hide take a share of a fixed feature count from the stereo matches
+  const odometry::OdometryParams defaults;
+  const int target = defaults.features.controller.target_stereo_matches;
+  ASSERT_GT(target, 0);  // the default this test stands behind
+  odometry::OdometryParams fixed_count = defaults;
+  fixed_count.features.controller.target_stereo_matches = 0;
+  struct Medians {
+    double features = 0, stereo = 0, inliers = 0;
+  };
+  const auto run = [](const drivers::Dataset& ds, const odometry::OdometryParams& params) {
+    std::vector<double> features, stereo, inliers;
+    int frame = 0;
+    runOdometry(ds, params, [&](const OdometryResult& r) {
+      if (++frame <= 10) return;  // the controller settling
+      features.push_back(r.quality.features_left);
+      stereo.push_back(r.quality.stereo_matches);
+      inliers.push_back(r.quality.ransac_inliers);
+    });
+    const auto median = [](std::vector<double> v) {
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      return v[v.size() / 2];
+    };
+    return Medians{median(features), median(stereo), median(inliers)};
+  };
+  // WHEN the odometry runs with a fixed feature count and with the stereo-match target
+  const Medians snow_fixed = run(sequence(202, true), fixed_count);
+  const Medians snow = run(sequence(202, true), defaults);
+  const Medians plain = run(sequence(202, false), defaults);
+  RecordProperty("snow_fixed_stereo", static_cast<int>(snow_fixed.stereo));
+  RecordProperty("snow_stereo", static_cast<int>(snow.stereo));
+  RecordProperty("snow_features", static_cast<int>(snow.features));
+  RecordProperty("plain_stereo", static_cast<int>(plain.stereo));
+  // THEN with a fixed count snow falls short of the target; with the target its features
+  // rise until the matches reach it (within the loop's frame-to-frame spread), and more
+  // matches carry into the inter-frame inliers
+  EXPECT_LT(snow_fixed.stereo, 0.85 * target);
+  EXPECT_NEAR(snow.stereo, target, 0.1 * target);
+  EXPECT_GT(snow.features, 1.3 * defaults.features.controller.target_count);
+  EXPECT_LE(snow.features, defaults.features.controller.max_count);
+  EXPECT_GT(snow.inliers, 1.2 * snow_fixed.inliers);
+  // AND clear water, which reaches the target with target_count features, keeps that count
+  EXPECT_GT(plain.stereo, target);
+  EXPECT_NEAR(plain.features, defaults.features.controller.target_count, 25);
+}
+
 TEST(LocalOdometry, ReselectedInliersSharpenVisionsOwnHeadingAtOneHertz) {
   // GIVEN a short plain survey at 1 Hz (1.5 m between frames, as the paper's survey), and the
   // odometry on vision's rotation alone (no gyro prior, no gyro bias learnt), so that each
