@@ -426,7 +426,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
       geometry::RansacResult& again = work_.reselected;
       again.T_prev_curr = ransac.T_prev_curr;
       again.iterations = ransac.iterations;
-      (rescued ? rescue_ransac_ : ransac_).reselect(quads, again, params_.patch_reselect_threshold_px);
+      (rescued ? rescue_ransac_ : ransac_).reselect(quads, again);
       const int need = rescued ? params_.rescue_min_inliers : params_.min_inliers;
       if (again.status == geometry::RansacStatus::kOk && static_cast<int>(again.inliers.size()) >= need &&
           finitePose(again.T_prev_curr))

@@ -93,8 +93,6 @@ struct OdometryParams {
   /// half the matches miss the threshold by SURF's localisation noise alone (docs/benchmarks.md,
   /// "Inliers re-selected after patch refinement").
   bool patch_reselect = true;
-  /// The re-selection's transfer-error threshold [px]; <= 0: the RANSAC's own.
-  double patch_reselect_threshold_px = 0;
   /// Re-select only when RANSAC found at least this many inliers: a motion from fewer is
   /// itself uncertain enough to let wrong matches in.
   int patch_reselect_min_inliers = 30;

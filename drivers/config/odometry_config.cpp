@@ -259,7 +259,6 @@ void visit(V& v, odometry::OdometryParams& p) {
   v.section("patch_refinement", [&] {
     v.flag("enabled", p.patch_refinement);
     v.flag("reselect_inliers", p.patch_reselect);
-    v.value("reselect_threshold_px", p.patch_reselect_threshold_px, 0, 100);
     v.value("reselect_min_inliers", p.patch_reselect_min_inliers, 0, 100000);
     v.value("half_size_px", p.patch.half_size_px, 1, 15);
     v.value("max_iterations", p.patch.max_iterations, 1, 100);
