@@ -151,7 +151,7 @@ TEST(LocalOdometry, MarineSnowCostsLittle) {
   RecordProperty("final_error_um_snow", static_cast<int>(1e6 * snow.metrics.final_error_m));
   RecordProperty("distance_mm", static_cast<int>(1e3 * snow.metrics.distance_m));
   EXPECT_EQ(snow.imu_only_frames, 0);
-  EXPECT_LT(snow.metrics.mean_error_pct, 0.17);  // measured 0.10 % (plain 0.09 %)
+  EXPECT_LT(snow.metrics.mean_error_pct, 0.17);  // measured 0.090 % (plain 0.063 %), stop 27
   // Within 20 % of plain, or within 2 cm where both are tiny.
   EXPECT_LT(snow.metrics.mean_error_m, std::max(1.2 * plain.metrics.mean_error_m, plain.metrics.mean_error_m + 0.02));
 }
