@@ -71,6 +71,7 @@ struct Quality {
   int stereo_matches = 0;
   int temporal_matches = 0;
   int ransac_inliers = 0;
+  int guided_tracks = 0;  ///< reference points found by patch alignment, not descriptors (before RANSAC's verdict)
   int icp_iterations = 0;
   int icp_inliers = 0;
   double icp_rms_m = 0;

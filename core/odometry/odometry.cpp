@@ -358,7 +358,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   std::vector<geometry::QuadMatch>& quads = work_.quads;
   const auto toQuads = [&] {
     quads.clear();
-    reserveWithHeadroom(quads, temporal.size());
+    // Room for the guided tracks too (at most one per reference point), so none reallocates.
+    reserveWithHeadroom(quads, temporal.size() + ref_features->points.size());
     for (const auto& m : temporal) {
       const auto& a = ref_features->points[static_cast<std::size_t>(m.prev)];
       const auto& b = frame.stereo.points[static_cast<std::size_t>(m.curr)];
@@ -421,6 +422,11 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
       resizeWithHeadroom(all, quads.size());
       std::iota(all.begin(), all.end(), 0u);
       refinePatches(*ref_features, ref_left, ref_right, frame, temporal, ransac.T_prev_curr, all, quads);
+      // The reference points descriptor matching missed, looked for where the motion puts them
+      // (guided_tracks.hpp); judged below with the rest. They sit after `temporal`'s quads.
+      r.quality.guided_tracks =
+          trackUnmatched(*ref_features, ref_left, ref_right, frame.left_image, frame.right_image, rig,
+                         ransac.T_prev_curr, temporal, params_.patch, params_.guided_tracks, work_.guided_used, quads);
       // The same RANSAC (threshold) that found the motion judges the refined pixels. If too
       // few pass, the first selection stands: its inliers were refined just as before.
       geometry::RansacResult& again = work_.reselected;
@@ -495,7 +501,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
       std::vector<Eigen::Vector3f> model;
       model.reserve(ref_features->points.size());
       for (const auto& sp : ref_features->points) model.push_back(sp.p_R0);
-      for (uint32_t i : ransac.inliers) seeds.emplace_back(temporal[i].curr, temporal[i].prev);
+      for (uint32_t i : ransac.inliers)  // guided tracks (past `temporal`) have no current stereo point
+        if (i < temporal.size()) seeds.emplace_back(temporal[i].curr, temporal[i].prev);
       const icp::PointCloudIndex index(model);
       const icp::IcpResult icp = icp::alignIcp(data, model, index, seeds, T_prev_curr, params_.icp);
       r.quality.icp_iterations = icp.iterations;
@@ -861,9 +868,7 @@ void Odometry::refinePatches(const matching::StereoFeatures& ref_features, const
   if (ref_left.empty() || ref_right.empty() || frame.left_image.empty() || frame.right_image.empty()) return;
   // A reference offset d appears in the current image turned by the motion's roll about the
   // optical axis and scaled by the depth ratio (a near-nadir view of a near-flat floor).
-  const Eigen::Matrix3d R_curr_ref = T_ref_curr.rotation().transpose();
-  const double angle = std::atan2(R_curr_ref(1, 0) - R_curr_ref(0, 1), R_curr_ref(0, 0) + R_curr_ref(1, 1));
-  const Eigen::Matrix2f turn = Eigen::Rotation2Df(static_cast<float>(angle)).toRotationMatrix();
+  const Eigen::Matrix2f turn = patchWarp(T_ref_curr, 1.0);
   for (const uint32_t i : indices) {
     if (i >= quads.size() || i >= temporal.size()) continue;
     geometry::QuadMatch& q = quads[i];

@@ -22,6 +22,7 @@
 #include "core/map/frame_map.hpp"
 #include "core/odometry/frontend.hpp"
 #include "core/odometry/global_refiner.hpp"
+#include "core/odometry/guided_tracks.hpp"
 #include "core/matching/patch_alignment.hpp"
 #include "core/odometry/motion_refinement.hpp"
 #include "core/odometry/prediction_innovation.hpp"
@@ -95,8 +96,11 @@ struct OdometryParams {
   bool patch_reselect = true;
   /// Re-select only when RANSAC found at least this many inliers: a motion from fewer is
   /// itself uncertain enough to let wrong matches in.
-  int patch_reselect_min_inliers = 30;
+  int patch_reselect_min_inliers = 15;
   matching::PatchAlignParams patch;
+  /// With patch_reselect: reference points without a descriptor match are aligned where the
+  /// motion puts them and join the re-selection (core/odometry/guided_tracks.hpp).
+  GuidedTrackParams guided_tracks;
   int min_inliers = 15;                      ///< fewer RANSAC inliers = vision failed this frame
   /// Second chance for a frame that failed: wide-baseline matches (1 Hz frames, 1.5 m apart,
   /// marine snow) are localised worse than the tight default threshold assumes, so RANSAC is
@@ -351,6 +355,7 @@ class Odometry {
     geometry::RansacResult ransac;
     geometry::RansacResult reselected;     ///< patch_reselect's outcome, swapped in when usable
     std::vector<uint32_t> patch_indices;   ///< patch_reselect: every temporal match
+    std::vector<uint8_t> guided_used;      ///< trackUnmatched's scratch
     MotionRefinementWorkspace refinement;
     std::vector<Eigen::Vector3f> cloud;     ///< the frame's stereo points for ICP / the map
     std::vector<std::pair<int, int>> seeds;  ///< ICP's descriptor seeds

@@ -260,6 +260,8 @@ void visit(V& v, odometry::OdometryParams& p) {
     v.flag("enabled", p.patch_refinement);
     v.flag("reselect_inliers", p.patch_reselect);
     v.value("reselect_min_inliers", p.patch_reselect_min_inliers, 0, 100000);
+    v.flag("guided_tracks", p.guided_tracks.enabled);
+    v.value("guided_border_px", p.guided_tracks.border_px, 0, 1000);
     v.value("half_size_px", p.patch.half_size_px, 1, 15);
     v.value("max_iterations", p.patch.max_iterations, 1, 100);
     v.value("max_shift_px", p.patch.max_shift_px, 0.01, 20);

@@ -259,6 +259,68 @@ TEST(LocalOdometry, ReselectedInliersSharpenVisionsOwnHeadingAtOneHertz) {
   EXPECT_EQ(inl_gated, inl_first);
 }
 
+TEST(LocalOdometry, GuidedTracksGiveSnowItsLostPointsBackAtOneHertz) {
+  // GIVEN the 1 Hz survey in marine snow, where half the floor points that were matched across
+  // the rig find no descriptor match in the next frame, and vision's rotation alone (as above)
+  simulate::SimConfig c = shortSurvey(137, true);
+  c.frames = 50;
+  c.frame_rate_hz = 1.0;
+  c.trajectory.speed_m_s = 1.5;
+  const drivers::Dataset& ds = sequence("1hz_snow", c);
+  odometry::OdometryParams params;
+  params.use_rotation_prior = false;
+  params.gyro_bias_gain = 0;
+  params.gyro_bias_gravity_window_s = 0;
+  ASSERT_TRUE(params.guided_tracks.enabled);  // the default this test stands behind
+  struct Run {
+    std::vector<double> heading_err, inliers, guided;
+    double mean_error_m = 0;
+  };
+  const auto run = [&](bool guided) {
+    params.guided_tracks.enabled = guided;
+    Run out;
+    std::optional<std::pair<Eigen::Matrix3d, Eigen::Matrix3d>> last;  // estimate, truth
+    out.mean_error_m = runOdometry(ds, params, [&](const OdometryResult& r) {
+                         const auto g = std::find_if(ds.ground_truth.begin(), ds.ground_truth.end(),
+                                                     [&](const auto& s) { return s.t_ns >= r.t_ns; });
+                         ASSERT_NE(g, ds.ground_truth.end());
+                         if (r.source != PoseSource::kVision) {
+                           last.reset();
+                           return;
+                         }
+                         if (last) {
+                           const Eigen::Matrix3d step_est = last->first.transpose() * r.T_W_B.linear();
+                           const Eigen::Matrix3d step_true = last->second.transpose() * g->T_W_B.linear();
+                           const Eigen::AngleAxisd e(step_true.transpose() * step_est);
+                           out.heading_err.push_back(std::abs(e.angle() * e.axis().z()));
+                           out.inliers.push_back(r.quality.ransac_inliers);
+                           out.guided.push_back(r.quality.guided_tracks);
+                         }
+                         last = std::make_pair(r.T_W_B.linear(), g->T_W_B.linear());
+                       }).metrics.mean_error_m;
+    return out;
+  };
+  // WHEN the points descriptor matching missed are looked for where the motion puts them
+  const Run without = run(false), with = run(true);
+  ASSERT_GT(without.inliers.size(), 25u);
+  ASSERT_GT(with.inliers.size(), 25u);
+  const double n0 = testing_support::median(without.inliers), n1 = testing_support::median(with.inliers);
+  const double e0 = testing_support::median(without.heading_err), e1 = testing_support::median(with.heading_err);
+  RecordProperty("median_inliers_without", static_cast<int>(n0));
+  RecordProperty("median_inliers_with", static_cast<int>(n1));
+  RecordProperty("median_guided_tracks", static_cast<int>(testing_support::median(with.guided)));
+  RecordProperty("median_heading_err_urad_without", static_cast<int>(std::lround(1e6 * e0)));
+  RecordProperty("median_heading_err_urad_with", static_cast<int>(std::lround(1e6 * e1)));
+  RecordProperty("mean_error_mm_without", static_cast<int>(std::lround(1e3 * without.mean_error_m)));
+  RecordProperty("mean_error_mm_with", static_cast<int>(std::lround(1e3 * with.mean_error_m)));
+  // THEN the frames keep more inliers and vision's own heading steps are sharper (medians).
+  // Measured at the time of writing (50 frames, 73 m): inliers 43 -> 67 (36 guided tracks),
+  // step heading error 0.31 -> 0.22 mrad.
+  EXPECT_EQ(testing_support::median(without.guided), 0.0);
+  EXPECT_GT(n1, 1.3 * n0);
+  EXPECT_LT(e1, 0.85 * e0) << "without " << e0 << " rad, with " << e1 << " rad";
+}
+
 TEST(LocalOdometry, GyroPriorBeatsVisionOnlyRotation) {
   // The flat floor makes pitch and surge nearly indistinguishable; the IMU rotation prior is
   // what keeps the translation honest (paper: the IMU aids the visual estimate). Measured on

@@ -138,6 +138,10 @@ TEST(TurnPrediction, SteeredUprightSurfKeepsMoreInliersThroughPivotTurns) {
   // WHEN the local odometry runs with upright SURF, steered by the gyro-predicted heading and not
   odometry::OdometryParams steered;
   steered.features.surf.upright = true;
+  // What the descriptors match, so without the guided tracks: those find the points the
+  // unsteered descriptors lose again once RANSAC has the motion from the rest (measured with
+  // them: 2042 steered against 2314 unsteered inliers over the 9 turning frames).
+  steered.guided_tracks.enabled = false;
   odometry::OdometryParams unsteered = steered;
   unsteered.steer_upright_descriptors = false;
   const TurnRun st = runTurns(ds, steered);
