@@ -70,7 +70,9 @@ std::optional<Eigen::Vector3d> GravityBiasObserver::add(int64_t t0_ns, const Eig
   w.p1_W = p1_W;
   w.heading1 = heading(R1_W_B);
   w.R1_W_B = R1_W_B;
-  if (1e-9 * static_cast<double>(w.t1_ns - w.t0_ns) < params_.window_s) return std::nullopt;
+  ++w.intervals;
+  if (1e-9 * static_cast<double>(w.t1_ns - w.t0_ns) < params_.window_s || w.intervals < params_.min_intervals)
+    return std::nullopt;
 
   // The window closes. With the one before it, it is a pair: the difference of their mean
   // velocities is the acceleration weighted by a triangle peaking at their boundary, and the

@@ -27,6 +27,9 @@ struct GravityBiasObserverParams {
   double window_s = 2.0;        ///< length of one window [s]; a pair is two, a rate needs three
   double max_turn_rad = 0.05;   ///< largest heading change over the three windows of a rate
   double max_rate_rad_s = 5e-3; ///< a larger tilt rate is a glitch of the chain, not a bias
+  /// A window also spans at least this many visual intervals: at 1 Hz a 1 s window would be a
+  /// single frame step, whose mean velocity carries one step's full visual noise.
+  int min_intervals = 1;
 };
 
 class GravityBiasObserver {
@@ -59,6 +62,7 @@ class GravityBiasObserver {
     Eigen::Vector3d I1 = Eigen::Vector3d::Zero();  ///< integral of R f dt [m/s]
     Eigen::Vector3d I2 = Eigen::Vector3d::Zero();  ///< integral of (t - t0) R f dt [m]
     double heading0 = 0, heading1 = 0;             ///< at both ends [rad]
+    int intervals = 0;                             ///< visual intervals added
     Eigen::Matrix3d R1_W_B = Eigen::Matrix3d::Identity();
   };
   struct PairResidual {

@@ -233,7 +233,11 @@ void Odometry::initialise(const FrameFeatures& frame, std::span<const ImuSample>
   pose_covariance_ = Matrix6d::Identity() * 1e-12;
   accel_bias_.reset(state_.T_W_B.rotation(), imu::attitudeFromAccelerometer(recent, 0.2).has_value(),
                     params_.attitude_sigma_rad);
-  gravity_bias_ = imu::GravityBiasObserver({params_.gyro_bias_gravity_window_s, params_.gyro_bias_gravity_max_turn_rad});
+  imu::GravityBiasObserverParams gravity;
+  gravity.window_s = params_.gyro_bias_gravity_window_s;
+  gravity.max_turn_rad = params_.gyro_bias_gravity_max_turn_rad;
+  gravity.min_intervals = params_.gyro_bias_gravity_window_min_frames;
+  gravity_bias_ = imu::GravityBiasObserver(gravity);
   initialised_ = true;
 }
 

@@ -185,6 +185,33 @@ TEST(GravityBiasObserver, ATurnStopsTheComparison) {
   EXPECT_EQ(reported(true), 0);
 }
 
+TEST(GravityBiasObserver, AWindowSpansAtLeastItsMinimumOfFrameIntervals) {
+  // GIVEN level flight at 1 m/s with no error, tracked at a frame interval of dt_s
+  const auto firstRateAt = [](double dt_s, int min_intervals) {
+    GravityBiasObserverParams params;
+    params.window_s = 1.0;
+    params.min_intervals = min_intervals;
+    GravityBiasObserver obs(params);
+    const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
+    const auto ns = [&](int k) { return static_cast<int64_t>(std::llround(k * dt_s * 1e9)); };
+    for (int k = 1; k <= 1000; ++k) {
+      const Eigen::Vector3d p0(dt_s * (k - 1), 0, 0), p1(dt_s * k, 0, 0);
+      const auto rate = obs.add(ns(k - 1), p0, ns(k), p1, I, -gravityW(), I);
+      if (rate) {
+        EXPECT_LT(rate->norm(), 1e-9);
+        return k;
+      }
+    }
+    return -1;
+  };
+  // THEN a rate needs three windows: at 10 Hz 1 s each (10 intervals) either way; at 1 Hz one
+  // interval each, or two with min_intervals 2 (the 2 s windows 1 Hz has always had)
+  EXPECT_EQ(firstRateAt(0.1, 1), 30);
+  EXPECT_EQ(firstRateAt(0.1, 2), 30);
+  EXPECT_EQ(firstRateAt(1.0, 1), 3);
+  EXPECT_EQ(firstRateAt(1.0, 2), 6);
+}
+
 }  // namespace
 }  // namespace gravity_bias_observer_test
 }  // namespace seavio::imu
