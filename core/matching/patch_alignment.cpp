@@ -43,6 +43,12 @@ bool normalise(float* v, int n, double min_stddev, float* stddev_out = nullptr) 
 
 }  // namespace
 
+Eigen::Matrix2f inPlaneTurn(const Eigen::Matrix3d& R_ref_curr) {
+  const Eigen::Matrix3d R_curr_ref = R_ref_curr.transpose();
+  const double angle = std::atan2(R_curr_ref(1, 0) - R_curr_ref(0, 1), R_curr_ref(0, 0) + R_curr_ref(1, 1));
+  return Eigen::Rotation2Df(static_cast<float>(angle)).toRotationMatrix();
+}
+
 PatchTemplate makePatchTemplate(const cv::Mat& ref, const Eigen::Vector2f& ref_uv, const PatchAlignParams& params) {
   PatchTemplate t;
   const int h = std::clamp(params.half_size_px, 1, PatchTemplate::kMaxHalf);

@@ -10,6 +10,7 @@
 /// carries that noise. Aligning the reference patch instead measures all images of a point
 /// against one anchor.
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
 namespace seavio::matching {
@@ -30,6 +31,11 @@ struct PatchAlignment {
   Eigen::Vector2f uv = Eigen::Vector2f::Zero();  ///< refined position (the start when !ok) [px]
   float zncc = 0;
 };
+
+/// The in-plane turn a near-nadir motion gives a patch: a reference offset appears in the
+/// current image turned by the roll about the optical axis (R_ref_curr: current R0 axes in
+/// the reference R0); scale it by the depth ratio ref / curr for the full warp `A`.
+Eigen::Matrix2f inPlaneTurn(const Eigen::Matrix3d& R_ref_curr);
 
 /// The reference patch, sampled once for all images it is looked for in: zero-mean,
 /// unit-variance grey levels and their gradients (inverse compositional: the Gauss-Newton

@@ -1,14 +1,6 @@
 #include "core/odometry/guided_tracks.hpp"
 
-#include <cmath>
-
 namespace seavio::odometry {
-
-Eigen::Matrix2f patchWarp(const Eigen::Isometry3d& T_ref_curr, double depth_ratio) {
-  const Eigen::Matrix3d R_curr_ref = T_ref_curr.rotation().transpose();
-  const double angle = std::atan2(R_curr_ref(1, 0) - R_curr_ref(0, 1), R_curr_ref(0, 0) + R_curr_ref(1, 1));
-  return static_cast<float>(depth_ratio) * Eigen::Rotation2Df(static_cast<float>(angle)).toRotationMatrix();
-}
 
 int trackUnmatched(const matching::StereoFeatures& ref, const cv::Mat& ref_left, const cv::Mat& ref_right,
                    const cv::Mat& curr_left, const cv::Mat& curr_right, const camera::RectifiedRig& rig,
@@ -20,6 +12,7 @@ int trackUnmatched(const matching::StereoFeatures& ref, const cv::Mat& ref_left,
   for (const auto& m : matched)
     if (m.prev >= 0 && static_cast<std::size_t>(m.prev) < used.size()) used[static_cast<std::size_t>(m.prev)] = 1;
   const Eigen::Isometry3d T_curr_ref = T_ref_curr.inverse();
+  const Eigen::Matrix2f turn = matching::inPlaneTurn(T_ref_curr.rotation());
   const double w = static_cast<double>(curr_left.cols), h = static_cast<double>(curr_left.rows);
   const auto inside = [&](const Eigen::Vector2d& uv) {
     return uv.x() >= params.border_px && uv.y() >= params.border_px && uv.x() < w - params.border_px &&
@@ -38,7 +31,7 @@ int trackUnmatched(const matching::StereoFeatures& ref, const cv::Mat& ref_left,
     if (!tmpl.ok) continue;
     const auto rp = matching::alignPatch(tmpl, ref_right, a.uv_right, Eigen::Matrix2f::Identity(), patch);
     if (!rp.ok) continue;
-    const Eigen::Matrix2f A = patchWarp(T_ref_curr, a.p_R0.z() / p_curr.z());
+    const Eigen::Matrix2f A = static_cast<float>(a.p_R0.z() / p_curr.z()) * turn;
     const auto lc = matching::alignPatch(tmpl, curr_left, uv_l.cast<float>(), A, patch);
     if (!lc.ok) continue;
     const auto rc = matching::alignPatch(tmpl, curr_right, uv_r.cast<float>(), A, patch);

@@ -41,9 +41,4 @@ int trackUnmatched(const matching::StereoFeatures& ref, const cv::Mat& ref_left,
                    const matching::PatchAlignParams& patch, const GuidedTrackParams& params,
                    std::vector<uint8_t>& used, std::vector<geometry::QuadMatch>& quads);
 
-/// The in-plane part of a near-nadir motion, for patch alignment: a reference offset appears
-/// in the current image turned by the roll about the optical axis and scaled by the depth
-/// ratio ref / curr.
-Eigen::Matrix2f patchWarp(const Eigen::Isometry3d& T_ref_curr, double depth_ratio);
-
 }  // namespace seavio::odometry

@@ -872,7 +872,7 @@ void Odometry::refinePatches(const matching::StereoFeatures& ref_features, const
   if (ref_left.empty() || ref_right.empty() || frame.left_image.empty() || frame.right_image.empty()) return;
   // A reference offset d appears in the current image turned by the motion's roll about the
   // optical axis and scaled by the depth ratio (a near-nadir view of a near-flat floor).
-  const Eigen::Matrix2f turn = patchWarp(T_ref_curr, 1.0);
+  const Eigen::Matrix2f turn = matching::inPlaneTurn(T_ref_curr.rotation());
   for (const uint32_t i : indices) {
     if (i >= quads.size() || i >= temporal.size()) continue;
     geometry::QuadMatch& q = quads[i];

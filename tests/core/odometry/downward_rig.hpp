@@ -4,6 +4,7 @@
 #include <Eigen/Core>
 
 #include "core/camera/camera_model.hpp"
+#include "core/camera/rectified_rig.hpp"
 
 namespace seavio::odometry::test {
 
@@ -22,6 +23,19 @@ inline camera::StereoCalibration downwardRig() {
   c.T_B_C0.translation() = Eigen::Vector3d(0.06, 0.16, -0.08);
   c.T_B_C1.translation() = c.T_B_C0.translation() + R_B_C.col(0) * 0.32;
   return c;
+}
+
+/// The same rig as the rectifier leaves it (640x480, f = 550 px, 0.32 m baseline), for tests
+/// that start from rectified images or pixels.
+inline camera::RectifiedRig rectifiedDownwardRig() {
+  camera::RectifiedRig rig;
+  rig.width = 640;
+  rig.height = 480;
+  rig.f_px = 550;
+  rig.cx = 320;
+  rig.cy = 240;
+  rig.baseline_m = 0.32;
+  return rig;
 }
 
 }  // namespace seavio::odometry::test

@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/odometry/guided_tracks.hpp"
+#include "downward_rig.hpp"
 
 namespace seavio::odometry {
 namespace {
@@ -19,18 +20,8 @@ constexpr double kDepthM = 4.0;         // fronto-parallel floor in front of bot
 constexpr double kTexelM = 0.003;       // texture resolution on the floor
 constexpr double kTextureOriginM = -3.5;
 
-camera::RectifiedRig rig() {
-  camera::RectifiedRig r;
-  r.width = 640;
-  r.height = 480;
-  r.f_px = 550;
-  r.cx = 319.5;
-  r.cy = 239.5;
-  r.baseline_m = 0.32;
-  return r;
-}
-
-/// Sand-like floor texture: blurred white noise (~1.6 px correlation at 4 m).
+/// Sand-like floor texture: blurred white noise (~1.6 px correlation at 4 m). Not the feature
+/// tests' makeTexture: its smooth cells and ellipses leave patches too flat to pin to 0.1 px.
 cv::Mat floorTexture() {
   cv::Mat f(2400, 2400, CV_32F);
   cv::RNG rng(7);
@@ -67,7 +58,7 @@ Eigen::Isometry3d motion(double yaw_rad, double x_m, double y_m) {
 }
 
 TEST(GuidedTracks, FindsTheUnmatchedPointsWhereTheMotionPutsThemAndNotUnderAParticle) {
-  const camera::RectifiedRig r = rig();
+  const camera::RectifiedRig r = test::rectifiedDownwardRig();
   const cv::Mat texture = floorTexture();
   const Eigen::Isometry3d T_ref_curr = motion(0.05, 0.30, 0.10);
   const cv::Mat ref_left = render(texture, r, Eigen::Isometry3d::Identity(), 0);
@@ -136,7 +127,7 @@ TEST(GuidedTracks, FindsTheUnmatchedPointsWhereTheMotionPutsThemAndNotUnderAPart
 }
 
 TEST(GuidedTracks, OffAddsNothing) {
-  const camera::RectifiedRig r = rig();
+  const camera::RectifiedRig r = test::rectifiedDownwardRig();
   const cv::Mat texture = floorTexture();
   const cv::Mat left = render(texture, r, Eigen::Isometry3d::Identity(), 0);
   const cv::Mat right = render(texture, r, Eigen::Isometry3d::Identity(), 1);

@@ -8,21 +8,13 @@
 #include <gtest/gtest.h>
 
 #include "core/odometry/motion_refinement.hpp"
+#include "downward_rig.hpp"
 
 namespace seavio::odometry {
 namespace motion_refinement_test {
 namespace {
 
-camera::RectifiedRig makeRig() {
-  camera::RectifiedRig rig;
-  rig.width = 640;
-  rig.height = 480;
-  rig.f_px = 550;
-  rig.cx = 320;
-  rig.cy = 240;
-  rig.baseline_m = 0.32;
-  return rig;
-}
+camera::RectifiedRig makeRig() { return test::rectifiedDownwardRig(); }
 
 /// A 10 cm survey step along the image rows (R0 y), with a little pitch and roll.
 Eigen::Isometry3d makeStep() {
