@@ -64,18 +64,21 @@ RippleNotchReport RippleNotch::apply(const cv::Mat& in, cv::Mat& out) {
 
   // The strongest bin of the annulus of ripple periods; the spectrum of a real image is
   // symmetric, so the half with fy >= 0 is enough.
+  // Squared frequencies: std::hypot per bin was a quarter of this function's time.
   const double f_lo = 1.0 / params_.max_period_px, f_hi = 1.0 / params_.min_period_px;
+  const double f_lo2 = f_lo * f_lo, f_hi2 = f_hi * f_hi;
   annulus_.clear();
   double best = -1, best_fx = 0, best_fy = 0;
   for (int r = 0; r < H; ++r) {
     const int iy = signedIndex(r, H);
     if (iy < 0) continue;
-    const double fy = static_cast<double>(iy) / H;
+    const double fy = static_cast<double>(iy) / H, fy2 = fy * fy;
+    if (fy2 > f_hi2) continue;  // the whole row is beyond the shortest period
     const auto* row = spectrum_.ptr<cv::Vec2f>(r);
     for (int c = 0; c < W; ++c) {
       const double fx = static_cast<double>(signedIndex(c, W)) / W;
-      const double f = std::hypot(fx, fy);
-      if (f < f_lo || f > f_hi) continue;
+      const double f2 = fx * fx + fy2;
+      if (f2 < f_lo2 || f2 > f_hi2) continue;
       const float p = row[c][0] * row[c][0] + row[c][1] * row[c][1];
       annulus_.push_back(p);
       if (p > best) {
