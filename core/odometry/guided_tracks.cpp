@@ -6,7 +6,7 @@ int trackUnmatched(const matching::StereoFeatures& ref, const cv::Mat& ref_left,
                    const cv::Mat& curr_left, const cv::Mat& curr_right, const camera::RectifiedRig& rig,
                    const Eigen::Isometry3d& T_ref_curr, std::span<const matching::TemporalMatch> matched,
                    const matching::PatchAlignParams& patch, const GuidedTrackParams& params,
-                   std::vector<uint8_t>& used, std::vector<geometry::QuadMatch>& quads) {
+                   ReferenceAlignments* cache, std::vector<uint8_t>& used, std::vector<geometry::QuadMatch>& quads) {
   if (!params.enabled || ref_left.empty() || ref_right.empty() || curr_left.empty() || curr_right.empty()) return 0;
   used.assign(ref.points.size(), 0);
   for (const auto& m : matched)
@@ -27,16 +27,15 @@ int trackUnmatched(const matching::StereoFeatures& ref, const cv::Mat& ref_left,
     if (!(p_curr.z() > 0)) continue;
     const Eigen::Vector2d uv_l = rig.project(p_curr, 0), uv_r = rig.project(p_curr, 1);
     if (!inside(uv_l) || !inside(uv_r)) continue;
-    const matching::PatchTemplate tmpl = matching::makePatchTemplate(ref_left, a.uv_left, patch);
-    if (!tmpl.ok) continue;
-    const auto rp = matching::alignPatch(tmpl, ref_right, a.uv_right, Eigen::Matrix2f::Identity(), patch);
-    if (!rp.ok) continue;
+    matching::PatchTemplate tmpl;
+    Eigen::Vector2f uv_right;
+    if (!alignInReference(i, ref_left, a.uv_left, ref_right, a.uv_right, patch, cache, tmpl, uv_right)) continue;
     const Eigen::Matrix2f A = static_cast<float>(a.p_R0.z() / p_curr.z()) * turn;
     const auto lc = matching::alignPatch(tmpl, curr_left, uv_l.cast<float>(), A, patch);
     if (!lc.ok) continue;
     const auto rc = matching::alignPatch(tmpl, curr_right, uv_r.cast<float>(), A, patch);
     if (!rc.ok) continue;
-    quads.push_back(geometry::QuadMatch{a.uv_left, rp.uv, lc.uv, rc.uv});
+    quads.push_back(geometry::QuadMatch{a.uv_left, uv_right, lc.uv, rc.uv});
     ++added;
   }
   return added;

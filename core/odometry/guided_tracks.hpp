@@ -21,6 +21,7 @@
 #include "core/geometry/quadrifocal_ransac.hpp"
 #include "core/matching/patch_alignment.hpp"
 #include "core/matching/temporal_matcher.hpp"
+#include "core/odometry/reference_alignment.hpp"
 
 namespace seavio::odometry {
 
@@ -34,11 +35,13 @@ struct GuidedTrackParams {
 /// Appends to `quads` one QuadMatch (left/right of the reference, left/right of the current
 /// frame) for every point of `ref` not in `matched` (TemporalMatch::prev indices) whose
 /// patch aligns in all three other images. T_ref_curr maps current R0 points into the
-/// reference R0; `used` is scratch (one flag per reference point). Returns how many it added.
+/// reference R0; `cache` (may be null) keeps the reference-right alignments across frames
+/// tracked against one keyframe; `used` is scratch (one flag per reference point). Returns how
+/// many it added.
 int trackUnmatched(const matching::StereoFeatures& ref, const cv::Mat& ref_left, const cv::Mat& ref_right,
                    const cv::Mat& curr_left, const cv::Mat& curr_right, const camera::RectifiedRig& rig,
                    const Eigen::Isometry3d& T_ref_curr, std::span<const matching::TemporalMatch> matched,
                    const matching::PatchAlignParams& patch, const GuidedTrackParams& params,
-                   std::vector<uint8_t>& used, std::vector<geometry::QuadMatch>& quads);
+                   ReferenceAlignments* cache, std::vector<uint8_t>& used, std::vector<geometry::QuadMatch>& quads);
 
 }  // namespace seavio::odometry

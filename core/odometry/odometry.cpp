@@ -421,16 +421,23 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   if (vision_ok && params_.patch_refinement) {
     const cv::Mat& ref_left = on_keyframe ? keyframe_->left_image : prev.features.left_image;
     const cv::Mat& ref_right = on_keyframe ? keyframe_->right_image : prev.features.right_image;
+    ReferenceAlignments* cache = nullptr;
+    if (on_keyframe) {
+      if (!work_.keyframe_alignments.holds(keyframe_->id))
+        work_.keyframe_alignments.reset(keyframe_->id, ref_features->points.size());
+      cache = &work_.keyframe_alignments;
+    }
     if (params_.patch_reselect && static_cast<int>(ransac.inliers.size()) >= params_.patch_reselect_min_inliers) {
       std::vector<uint32_t>& all = work_.patch_indices;
       resizeWithHeadroom(all, quads.size());
       std::iota(all.begin(), all.end(), 0u);
-      refinePatches(*ref_features, ref_left, ref_right, frame, temporal, ransac.T_prev_curr, all, quads);
+      refinePatches(*ref_features, ref_left, ref_right, frame, temporal, ransac.T_prev_curr, all, cache, quads);
       // The reference points descriptor matching missed, looked for where the motion puts them
       // (guided_tracks.hpp); judged below with the rest. They sit after `temporal`'s quads.
       r.quality.guided_tracks =
           trackUnmatched(*ref_features, ref_left, ref_right, frame.left_image, frame.right_image, rig,
-                         ransac.T_prev_curr, temporal, params_.patch, params_.guided_tracks, work_.guided_used, quads);
+                         ransac.T_prev_curr, temporal, params_.patch, params_.guided_tracks, cache, work_.guided_used,
+                         quads);
       // The same RANSAC (threshold) that found the motion judges the refined pixels. If too
       // few pass, the first selection stands: its inliers were refined just as before.
       geometry::RansacResult& again = work_.reselected;
@@ -442,7 +449,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
           finitePose(again.T_prev_curr))
         std::swap(ransac, again);
     } else {
-      refinePatches(*ref_features, ref_left, ref_right, frame, temporal, ransac.T_prev_curr, ransac.inliers, quads);
+      refinePatches(*ref_features, ref_left, ref_right, frame, temporal, ransac.T_prev_curr, ransac.inliers, cache,
+                    quads);
     }
   }
 
@@ -860,6 +868,7 @@ void Odometry::newKeyframe(const FrameFeatures& frame, const Eigen::Isometry3d& 
   k.features.descriptors = features.descriptors.clone();
   k.T_W_R0 = T_W_R0;
   k.t_ns = t_ns;
+  k.id = ++keyframes_made_;
   k.pose_covariance = pose_covariance_;
   keyframe_ = std::move(k);
 }
@@ -868,7 +877,7 @@ void Odometry::refinePatches(const matching::StereoFeatures& ref_features, const
                              const cv::Mat& ref_right, const FrameFeatures& frame,
                              const std::vector<matching::TemporalMatch>& temporal,
                              const Eigen::Isometry3d& T_ref_curr, std::span<const uint32_t> indices,
-                             std::vector<geometry::QuadMatch>& quads) const {
+                             ReferenceAlignments* cache, std::vector<geometry::QuadMatch>& quads) const {
   if (ref_left.empty() || ref_right.empty() || frame.left_image.empty() || frame.right_image.empty()) return;
   // A reference offset d appears in the current image turned by the motion's roll about the
   // optical axis and scaled by the depth ratio (a near-nadir view of a near-flat floor).
@@ -880,16 +889,18 @@ void Odometry::refinePatches(const matching::StereoFeatures& ref_features, const
     const auto& b = frame.stereo.points[static_cast<std::size_t>(temporal[i].curr)];
     const float scale = b.p_R0.z() > 0 && a.p_R0.z() > 0 ? a.p_R0.z() / b.p_R0.z() : 1.f;
     const Eigen::Matrix2f A = scale * turn;
-    const matching::PatchTemplate tmpl = matching::makePatchTemplate(ref_left, q.left_prev, params_.patch);
-    if (!tmpl.ok) continue;
-    const auto rp = matching::alignPatch(tmpl, ref_right, q.right_prev, Eigen::Matrix2f::Identity(), params_.patch);
-    if (!rp.ok) continue;
+    // q's reference pixels are point temporal[i].prev's (toQuads), as the cache assumes.
+    matching::PatchTemplate tmpl;
+    Eigen::Vector2f uv_right_prev;
+    if (!alignInReference(static_cast<std::size_t>(temporal[i].prev), ref_left, q.left_prev, ref_right, q.right_prev,
+                          params_.patch, cache, tmpl, uv_right_prev))
+      continue;
     const auto lc = matching::alignPatch(tmpl, frame.left_image, q.left_curr, A, params_.patch);
     if (!lc.ok) continue;
     const auto rc = matching::alignPatch(tmpl, frame.right_image, q.right_curr, A, params_.patch);
     // All three or none: a point half refined would mix two localisations of one feature.
     if (!rc.ok) continue;
-    q.right_prev = rp.uv;
+    q.right_prev = uv_right_prev;
     q.left_curr = lc.uv;
     q.right_curr = rc.uv;
   }

@@ -287,11 +287,12 @@ class Odometry {
   /// Makes the frame just tracked (pose `T_W_R0`, the current pose covariance) the keyframe.
   void newKeyframe(const FrameFeatures& frame, const Eigen::Isometry3d& T_W_R0, int64_t t_ns);
   /// patch_refinement: the matches `indices` of `quads` (temporal matches `temporal` of
-  /// `ref_features` against `frame`) aligned on the reference left image's patches.
+  /// `ref_features` against `frame`) aligned on the reference left image's patches; `cache`
+  /// (null unless the reference is the keyframe) keeps the reference-right alignments.
   void refinePatches(const matching::StereoFeatures& ref_features, const cv::Mat& ref_left, const cv::Mat& ref_right,
                      const FrameFeatures& frame, const std::vector<matching::TemporalMatch>& temporal,
                      const Eigen::Isometry3d& T_ref_curr, std::span<const uint32_t> indices,
-                     std::vector<geometry::QuadMatch>& quads) const;
+                     ReferenceAlignments* cache, std::vector<geometry::QuadMatch>& quads) const;
   /// Deferred mode: the request for the frame just tracked.
   void makeGlobalRequest(const FrameFeatures& frame, const Eigen::Isometry3d& T_W_R0, const OdometryResult& r,
                          bool first_frame);
@@ -338,6 +339,7 @@ class Odometry {
     matching::StereoFeatures features;
     Eigen::Isometry3d T_W_R0 = Eigen::Isometry3d::Identity();
     int64_t t_ns = 0;
+    uint64_t id = 0;  ///< 1, 2, ... in the order made (ReferenceAlignments' key)
     Eigen::Matrix<double, 6, 6> pose_covariance = Eigen::Matrix<double, 6, 6>::Zero();
     int first_inliers = 0;  ///< RANSAC inliers of the first frame tracked against it (0: none yet)
     int frames_tracked = 0; ///< visual frames tracked against it (gyro_bias_per_keyframe's gain)
@@ -346,6 +348,7 @@ class Odometry {
     cv::Mat left_image, right_image;  ///< patch_refinement only: its own copies
   };
   std::optional<Keyframe> keyframe_;
+  uint64_t keyframes_made_ = 0;
   Eigen::Isometry3d last_motion_ = Eigen::Isometry3d::Identity();  ///< for IMU-less prediction
   double last_dt_s_ = 0;
   std::vector<ImuSample> imu_buffer_;  ///< samples kept across calls for interpolation
@@ -361,6 +364,7 @@ class Odometry {
     geometry::RansacResult reselected;     ///< patch_reselect's outcome, swapped in when usable
     std::vector<uint32_t> patch_indices;   ///< patch_reselect: every temporal match
     std::vector<uint8_t> guided_used;      ///< trackUnmatched's scratch
+    ReferenceAlignments keyframe_alignments;  ///< the keyframe's reference-right alignments
     MotionRefinementWorkspace refinement;
     std::vector<Eigen::Vector3f> cloud;     ///< the frame's stereo points for ICP / the map
     std::vector<std::pair<int, int>> seeds;  ///< ICP's descriptor seeds

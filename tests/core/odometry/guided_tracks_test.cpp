@@ -97,8 +97,38 @@ TEST(GuidedTracks, FindsTheUnmatchedPointsWhereTheMotionPutsThemAndNotUnderAPart
   std::vector<uint8_t> used;
   std::vector<geometry::QuadMatch> quads(matched.size());  // the descriptor matches' quads come first
   const int added = trackUnmatched(ref, ref_left, ref_right, curr_left, curr_right, r, T_estimate, matched,
-                                   matching::PatchAlignParams{}, GuidedTrackParams{}, used, quads);
+                                   matching::PatchAlignParams{}, GuidedTrackParams{}, nullptr, used, quads);
   ASSERT_EQ(static_cast<std::size_t>(added) + matched.size(), quads.size());
+
+  // With a keyframe's cache the same quads come out, bit for bit; and the second frame tracked
+  // against that keyframe takes the reference-right positions from the cache: with the
+  // reference right image blanked, uncached nothing aligns, cached the same quads return.
+  ReferenceAlignments cache;
+  cache.reset(1, ref.points.size());
+  const auto cachedRun = [&](const cv::Mat& right) {
+    std::vector<geometry::QuadMatch> out(matched.size());
+    trackUnmatched(ref, ref_left, right, curr_left, curr_right, r, T_estimate, matched, matching::PatchAlignParams{},
+                   GuidedTrackParams{}, &cache, used, out);
+    return out;
+  };
+  const auto sameQuads = [&](const std::vector<geometry::QuadMatch>& a) {
+    if (a.size() != quads.size()) return false;
+    for (std::size_t k = 0; k < a.size(); ++k)
+      if (a[k].left_prev != quads[k].left_prev || a[k].right_prev != quads[k].right_prev ||
+          a[k].left_curr != quads[k].left_curr || a[k].right_curr != quads[k].right_curr)
+        return false;
+    return true;
+  };
+  EXPECT_TRUE(sameQuads(cachedRun(ref_right)));
+  const cv::Mat blank(ref_right.size(), ref_right.type(), cv::Scalar(128));
+  EXPECT_TRUE(sameQuads(cachedRun(blank)));
+  std::vector<geometry::QuadMatch> uncached(matched.size());
+  EXPECT_EQ(trackUnmatched(ref, ref_left, blank, curr_left, curr_right, r, T_estimate, matched,
+                           matching::PatchAlignParams{}, GuidedTrackParams{}, nullptr, used, uncached),
+            0);
+  // A new keyframe starts over: its blank right image aligns nothing.
+  cache.reset(2, ref.points.size());
+  EXPECT_EQ(cachedRun(blank).size(), matched.size());
 
   // Which unmatched points are in view in both current images (with the patch's margin).
   int in_view = 0;
@@ -142,13 +172,13 @@ TEST(GuidedTracks, OffAddsNothing) {
   GuidedTrackParams off;
   off.enabled = false;
   const Eigen::Isometry3d still = Eigen::Isometry3d::Identity();
-  EXPECT_EQ(trackUnmatched(ref, left, right, left, right, r, still, {}, {}, off, used, quads), 0);
+  EXPECT_EQ(trackUnmatched(ref, left, right, left, right, r, still, {}, {}, off, nullptr, used, quads), 0);
   EXPECT_TRUE(quads.empty());
-  EXPECT_EQ(trackUnmatched(ref, left, right, left, right, r, still, {}, {}, {}, used, quads), 1);
+  EXPECT_EQ(trackUnmatched(ref, left, right, left, right, r, still, {}, {}, {}, nullptr, used, quads), 1);
   ASSERT_EQ(quads.size(), 1u);
   // Matched already: not looked for again.
   const std::vector<matching::TemporalMatch> matched{{0, 0, 0.f}};
-  EXPECT_EQ(trackUnmatched(ref, left, right, left, right, r, still, matched, {}, {}, used, quads), 0);
+  EXPECT_EQ(trackUnmatched(ref, left, right, left, right, r, still, matched, {}, {}, nullptr, used, quads), 0);
 }
 
 }  // namespace

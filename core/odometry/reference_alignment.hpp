@@ -1,0 +1,50 @@
+#pragma once
+/// A reference stereo point's left patch and its alignment in the reference right image, the
+/// first of the three alignments patch refinement and guided tracks make per point
+/// (core/matching/patch_alignment.hpp).
+///
+/// Why a cache: that alignment depends on the reference pair alone. While frames track
+/// against one keyframe (1.2 m, a dozen frames at 10 Hz) each frame used to redo it for the
+/// same points; kept per keyframe it runs once per point, and a point whose template or
+/// alignment failed is not tried again. The results are the same to the bit.
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "core/matching/patch_alignment.hpp"
+
+namespace seavio::odometry {
+
+/// Right-image alignments of one reference frame's points, by point index.
+class ReferenceAlignments {
+ public:
+  /// Starts over for reference `key` (a keyframe's id) with `n` points; no allocation once
+  /// the buffers have grown to the largest frame.
+  void reset(uint64_t key, std::size_t n);
+  /// True when the entries belong to reference `key`.
+  bool holds(uint64_t key) const { return valid_ && key_ == key; }
+
+  enum class State : uint8_t { kUnknown, kFailed, kAligned };
+  State state(std::size_t i) const { return i < state_.size() ? state_[i] : State::kUnknown; }
+  const Eigen::Vector2f& uvRight(std::size_t i) const { return uv_right_[i]; }
+  void set(std::size_t i, bool aligned, const Eigen::Vector2f& uv_right);
+
+ private:
+  bool valid_ = false;
+  uint64_t key_ = 0;
+  std::vector<State> state_;
+  std::vector<Eigen::Vector2f> uv_right_;
+};
+
+/// The template of point i's reference-left patch at `uv_left` into `tmpl`, and the patch
+/// aligned in the reference right image from `uv_right` into `aligned_uv_right`; false when
+/// either fails. `cache` (may be null: the reference is the previous frame, seen once) holds
+/// the right alignment of points already tried against this reference.
+bool alignInReference(std::size_t i, const cv::Mat& ref_left, const Eigen::Vector2f& uv_left, const cv::Mat& ref_right,
+                      const Eigen::Vector2f& uv_right, const matching::PatchAlignParams& params,
+                      ReferenceAlignments* cache, matching::PatchTemplate& tmpl, Eigen::Vector2f& aligned_uv_right);
+
+}  // namespace seavio::odometry
