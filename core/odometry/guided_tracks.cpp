@@ -27,9 +27,10 @@ int trackUnmatched(const matching::StereoFeatures& ref, const cv::Mat& ref_left,
     if (!(p_curr.z() > 0)) continue;
     const Eigen::Vector2d uv_l = rig.project(p_curr, 0), uv_r = rig.project(p_curr, 1);
     if (!inside(uv_l) || !inside(uv_r)) continue;
-    matching::PatchTemplate tmpl;
+    if (cache && cache->knownToFail(i)) continue;
+    const matching::PatchTemplate tmpl = matching::makePatchTemplate(ref_left, a.uv_left, patch);
     Eigen::Vector2f uv_right;
-    if (!alignInReference(i, ref_left, a.uv_left, ref_right, a.uv_right, patch, cache, tmpl, uv_right)) continue;
+    if (!alignInReferenceRight(i, tmpl, ref_right, a.uv_right, patch, cache, uv_right)) continue;
     const Eigen::Matrix2f A = static_cast<float>(a.p_R0.z() / p_curr.z()) * turn;
     const auto lc = matching::alignPatch(tmpl, curr_left, uv_l.cast<float>(), A, patch);
     if (!lc.ok) continue;

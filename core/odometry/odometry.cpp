@@ -890,11 +890,11 @@ void Odometry::refinePatches(const matching::StereoFeatures& ref_features, const
     const float scale = b.p_R0.z() > 0 && a.p_R0.z() > 0 ? a.p_R0.z() / b.p_R0.z() : 1.f;
     const Eigen::Matrix2f A = scale * turn;
     // q's reference pixels are point temporal[i].prev's (toQuads), as the cache assumes.
-    matching::PatchTemplate tmpl;
+    const auto ref_index = static_cast<std::size_t>(temporal[i].prev);
+    if (cache && cache->knownToFail(ref_index)) continue;
+    const matching::PatchTemplate tmpl = matching::makePatchTemplate(ref_left, q.left_prev, params_.patch);
     Eigen::Vector2f uv_right_prev;
-    if (!alignInReference(static_cast<std::size_t>(temporal[i].prev), ref_left, q.left_prev, ref_right, q.right_prev,
-                          params_.patch, cache, tmpl, uv_right_prev))
-      continue;
+    if (!alignInReferenceRight(ref_index, tmpl, ref_right, q.right_prev, params_.patch, cache, uv_right_prev)) continue;
     const auto lc = matching::alignPatch(tmpl, frame.left_image, q.left_curr, A, params_.patch);
     if (!lc.ok) continue;
     const auto rc = matching::alignPatch(tmpl, frame.right_image, q.right_curr, A, params_.patch);

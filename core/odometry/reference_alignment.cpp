@@ -20,12 +20,11 @@ void ReferenceAlignments::set(std::size_t i, bool aligned, const Eigen::Vector2f
   uv_right_[i] = uv_right;
 }
 
-bool alignInReference(std::size_t i, const cv::Mat& ref_left, const Eigen::Vector2f& uv_left, const cv::Mat& ref_right,
-                      const Eigen::Vector2f& uv_right, const matching::PatchAlignParams& params,
-                      ReferenceAlignments* cache, matching::PatchTemplate& tmpl, Eigen::Vector2f& aligned_uv_right) {
+bool alignInReferenceRight(std::size_t i, const matching::PatchTemplate& tmpl, const cv::Mat& ref_right,
+                           const Eigen::Vector2f& uv_right, const matching::PatchAlignParams& params,
+                           ReferenceAlignments* cache, Eigen::Vector2f& aligned_uv_right) {
   const ReferenceAlignments::State known = cache ? cache->state(i) : ReferenceAlignments::State::kUnknown;
   if (known == ReferenceAlignments::State::kFailed) return false;
-  tmpl = matching::makePatchTemplate(ref_left, uv_left, params);
   if (!tmpl.ok) {
     if (cache) cache->set(i, false, uv_right);
     return false;

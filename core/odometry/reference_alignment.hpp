@@ -29,6 +29,7 @@ class ReferenceAlignments {
 
   enum class State : uint8_t { kUnknown, kFailed, kAligned };
   State state(std::size_t i) const { return i < state_.size() ? state_[i] : State::kUnknown; }
+  bool knownToFail(std::size_t i) const { return state(i) == State::kFailed; }
   const Eigen::Vector2f& uvRight(std::size_t i) const { return uv_right_[i]; }
   void set(std::size_t i, bool aligned, const Eigen::Vector2f& uv_right);
 
@@ -39,12 +40,13 @@ class ReferenceAlignments {
   std::vector<Eigen::Vector2f> uv_right_;
 };
 
-/// The template of point i's reference-left patch at `uv_left` into `tmpl`, and the patch
-/// aligned in the reference right image from `uv_right` into `aligned_uv_right`; false when
-/// either fails. `cache` (may be null: the reference is the previous frame, seen once) holds
-/// the right alignment of points already tried against this reference.
-bool alignInReference(std::size_t i, const cv::Mat& ref_left, const Eigen::Vector2f& uv_left, const cv::Mat& ref_right,
-                      const Eigen::Vector2f& uv_right, const matching::PatchAlignParams& params,
-                      ReferenceAlignments* cache, matching::PatchTemplate& tmpl, Eigen::Vector2f& aligned_uv_right);
+/// Point i's reference-left template `tmpl` (made by the caller, so that it is built in place:
+/// it is 11 KB) aligned in the reference right image from `uv_right`: its position there into
+/// `aligned_uv_right`, or false when the template or the alignment fails. `cache` (may be null:
+/// the reference is the previous frame, seen once) holds the points already tried against this
+/// reference; a caller may skip making the template of a point `cache` knows to fail.
+bool alignInReferenceRight(std::size_t i, const matching::PatchTemplate& tmpl, const cv::Mat& ref_right,
+                           const Eigen::Vector2f& uv_right, const matching::PatchAlignParams& params,
+                           ReferenceAlignments* cache, Eigen::Vector2f& aligned_uv_right);
 
 }  // namespace seavio::odometry
