@@ -127,8 +127,9 @@ struct StageBenchOptions {
 };
 
 /// Times rectification, SURF (one image and L+R), stereo matching per frame directly, the
-/// temporal matching, tensor RANSAC, ICP and whole frame from a global run (and ICP from a
-/// local run), and ICP against a synthetic model of `icp_model_points` points.
+/// temporal matching, the tensor stage (RANSAC + motion refinement, and patch alignment apart),
+/// ICP and whole frame from a global run (and ICP from a local run), and ICP against a
+/// synthetic model of `icp_model_points` points.
 std::vector<StageRow> runStageBench(const StageBenchOptions& options);
 
 /// Least-squares line y = intercept + slope x (r2: coefficient of determination).

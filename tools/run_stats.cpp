@@ -175,7 +175,7 @@ void RunStats::writeJson(const std::string& path) const {
               f.times.icp_ms, f.times.total_ms);
     // What corrected an IMU-only frame's coasting (issue 5; "none" on visual frames).
     os << fmt::format(", \"coasting\": \"{}\"", coastingName(f.coasting));
-    os << fmt::format(", \"guided_tracks\": {}", f.quality.guided_tracks);
+    os << fmt::format(", \"guided_tracks\": {}, \"patch_ms\": {:.3f}", f.quality.guided_tracks, f.times.patch_ms);
     // The position sigma the odometry claims (global mode sizes its revisit search by it).
     os << fmt::format(", \"position_sigma_m\": {:.4f}, \"map_refined\": {}",
                       std::sqrt(std::max(f.covariance.bottomRightCorner<3, 3>().trace(), 0.0)),

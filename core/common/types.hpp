@@ -60,6 +60,9 @@ struct StageTimes {
   double stereo_ms = 0;
   double temporal_ms = 0;
   double tensor_ms = 0;
+  /// The part of tensor_ms spent on patch alignment (patch refinement, guided tracks and the
+  /// RANSAC reselection that judges them); the rest is RANSAC and the motion refinements.
+  double patch_ms = 0;
   double icp_ms = 0;
   double total_ms = 0;
 };

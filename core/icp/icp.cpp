@@ -7,14 +7,12 @@
 #include <Eigen/Cholesky>
 #include <Eigen/SVD>
 
+#include "core/common/capacity.hpp"
+
 namespace seavio::icp {
 namespace {
 
-struct Pair {
-  Eigen::Vector3d d;  ///< data point, data frame
-  Eigen::Vector3d m;  ///< model point
-  double w = 1.0;
-};
+using Pair = IcpPair;
 
 bool finiteIso(const Eigen::Isometry3d& T) { return T.matrix().allFinite(); }
 
@@ -86,6 +84,15 @@ IcpResult alignIcp(std::span<const Eigen::Vector3f> data, std::span<const Eigen:
                    const PointCloudIndex& model_index,
                    std::span<const std::pair<int, int>> seed_correspondences,
                    const Eigen::Isometry3d& T_model_data_init, const IcpParams& params) {
+  IcpWorkspace workspace;
+  return alignIcp(data, model, model_index, seed_correspondences, T_model_data_init, params, workspace);
+}
+
+IcpResult alignIcp(std::span<const Eigen::Vector3f> data, std::span<const Eigen::Vector3f> model,
+                   const PointCloudIndex& model_index,
+                   std::span<const std::pair<int, int>> seed_correspondences,
+                   const Eigen::Isometry3d& T_model_data_init, const IcpParams& params,
+                   IcpWorkspace& workspace) {
   IcpResult result;
   const int min_corr = std::max(3, params.min_correspondences);
   if (!finiteIso(T_model_data_init) || data.empty() || model.empty() ||
@@ -102,10 +109,12 @@ IcpResult alignIcp(std::span<const Eigen::Vector3f> data, std::span<const Eigen:
     return result;
   };
 
-  std::vector<Pair> pairs;
-  pairs.reserve(std::max(data.size(), seed_correspondences.size()));
-  std::vector<double> resid;
-  resid.reserve(pairs.capacity());
+  std::vector<Pair>& pairs = workspace.pairs;
+  pairs.clear();
+  reserveWithHeadroom(pairs, std::max(data.size(), seed_correspondences.size()));
+  std::vector<double>& resid = workspace.residuals_m;
+  resid.clear();
+  reserveWithHeadroom(resid, seed_correspondences.size());
   Eigen::Isometry3d T = T_model_data_init;
 
   // Step 1 (III-E): descriptor correspondences fix the coarse alignment independently of the

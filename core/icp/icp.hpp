@@ -2,6 +2,7 @@
 /// Robust point-to-point ICP seeded by descriptor correspondences (paper section III-E).
 #include <span>
 #include <utility>
+#include <vector>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -52,6 +53,20 @@ struct IcpResult {
   Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Identity();
 };
 
+/// One correspondence of an ICP step: a data point (data frame), its model point, its weight.
+struct IcpPair {
+  Eigen::Vector3d d;
+  Eigen::Vector3d m;
+  double w = 1.0;
+};
+
+/// alignIcp's scratch, kept by a caller that aligns every frame so that a frame's ICP does not
+/// call the heap once the buffers have their size (issue 8).
+struct IcpWorkspace {
+  std::vector<IcpPair> pairs;
+  std::vector<double> residuals_m;
+};
+
 /// Aligns `data` to `model` (paper section III-E). The first step uses
 /// `seed_correspondences` (data index, model index) from descriptor matches when at least
 /// `min_correspondences` of them are valid; every later step pairs each transformed data point
@@ -64,5 +79,12 @@ struct IcpResult {
                                  std::span<const std::pair<int, int>> seed_correspondences,
                                  const Eigen::Isometry3d& T_model_data_init,
                                  const IcpParams& params);
+/// As above, with the caller's scratch.
+[[nodiscard]] IcpResult alignIcp(std::span<const Eigen::Vector3f> data,
+                                 std::span<const Eigen::Vector3f> model,
+                                 const PointCloudIndex& model_index,
+                                 std::span<const std::pair<int, int>> seed_correspondences,
+                                 const Eigen::Isometry3d& T_model_data_init,
+                                 const IcpParams& params, IcpWorkspace& workspace);
 
 }  // namespace seavio::icp

@@ -419,6 +419,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     }
   }
   if (vision_ok && params_.patch_refinement) {
+    r.times.tensor_ms += timer.lap_ms();
     const cv::Mat& ref_left = on_keyframe ? keyframe_->left_image : prev.features.left_image;
     const cv::Mat& ref_right = on_keyframe ? keyframe_->right_image : prev.features.right_image;
     ReferenceAlignments* cache = nullptr;
@@ -452,6 +453,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
       refinePatches(*ref_features, ref_left, ref_right, frame, temporal, ransac.T_prev_curr, ransac.inliers, cache,
                     quads);
     }
+    r.times.patch_ms = timer.lap_ms();
+    r.times.tensor_ms += r.times.patch_ms;
   }
 
   r.quality.ransac_inliers = static_cast<int>(ransac.inliers.size());
@@ -510,13 +513,21 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     seeds.clear();
     reserveWithHeadroom(seeds, ransac.inliers.size());
     if (params_.mode == Mode::kLocal) {
-      std::vector<Eigen::Vector3f> model;
-      model.reserve(ref_features->points.size());
-      for (const auto& sp : ref_features->points) model.push_back(sp.p_R0);
+      // The keyframe's tree was built with it; only a frame tracked against the previous frame
+      // (no keyframe, or the keyframe lost) builds one, and that allocates (nanoflann's pool).
+      const icp::PointCloudIndex* index = on_keyframe ? &keyframe_->model_index : nullptr;
+      if (!index || index->size() != ref_features->points.size()) {
+        std::vector<Eigen::Vector3f>& points = work_.model;
+        points.clear();
+        reserveWithHeadroom(points, ref_features->points.size());
+        for (const auto& sp : ref_features->points) points.push_back(sp.p_R0);
+        work_.previous_index.build(points);
+        index = &work_.previous_index;
+      }
+      const std::vector<Eigen::Vector3f>& model = index->points();
       for (uint32_t i : ransac.inliers)  // guided tracks (past `temporal`) have no current stereo point
         if (i < temporal.size()) seeds.emplace_back(temporal[i].curr, temporal[i].prev);
-      const icp::PointCloudIndex index(model);
-      const icp::IcpResult icp = icp::alignIcp(data, model, index, seeds, T_prev_curr, params_.icp);
+      const icp::IcpResult icp = icp::alignIcp(data, model, *index, seeds, T_prev_curr, params_.icp, work_.icp);
       r.quality.icp_iterations = icp.iterations;
       r.quality.icp_inliers = icp.inliers;
       r.quality.icp_rms_m = icp.rms_m;
@@ -851,21 +862,31 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
 
 void Odometry::newKeyframe(const FrameFeatures& frame, const Eigen::Isometry3d& T_W_R0, int64_t t_ns) {
   const matching::StereoFeatures& features = frame.stereo;
+  // Its own copies (the keyframe outlives the frame whose buffers the frontend reuses), into
+  // the outgoing keyframe's buffers: at 1 Hz every frame is a keyframe, and fresh copies would
+  // allocate images and points per frame (issue 8). The descriptors' Mat is reallocated when
+  // the count changes; the tree's nodes always are (nanoflann's pool).
   Keyframe k;
+  if (keyframe_) {
+    k.left_image = std::move(keyframe_->left_image);
+    k.right_image = std::move(keyframe_->right_image);
+    k.features = std::move(keyframe_->features);
+    k.model_index = std::move(keyframe_->model_index);
+  }
   if (params_.patch_refinement) {
-    // Its own copies, into the outgoing keyframe's buffers: at 1 Hz every frame is a keyframe,
-    // and a clone would allocate two images per frame.
-    if (keyframe_) {
-      k.left_image = std::move(keyframe_->left_image);
-      k.right_image = std::move(keyframe_->right_image);
-    }
     frame.left_image.copyTo(k.left_image);
     frame.right_image.copyTo(k.right_image);
   }
-  k.features.points = features.points;
-  k.features.laplacian_sign = features.laplacian_sign;
-  // Its own copy: the keyframe outlives the frame whose buffers the frontend may reuse.
-  k.features.descriptors = features.descriptors.clone();
+  k.features.points.assign(features.points.begin(), features.points.end());
+  k.features.laplacian_sign.assign(features.laplacian_sign.begin(), features.laplacian_sign.end());
+  features.descriptors.copyTo(k.features.descriptors);
+  if (params_.mode == Mode::kLocal) {
+    std::vector<Eigen::Vector3f>& points = work_.model;
+    points.clear();
+    reserveWithHeadroom(points, features.points.size());
+    for (const auto& sp : features.points) points.push_back(sp.p_R0);
+    k.model_index.build(points);
+  }
   k.T_W_R0 = T_W_R0;
   k.t_ns = t_ns;
   k.id = ++keyframes_made_;

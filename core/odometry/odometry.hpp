@@ -269,6 +269,8 @@ class Odometry {
   /// The inline global step's map (empty in deferred mode: the refiner elsewhere holds it).
   const map::FrameMap& frameMap() const { return refiner_.frameMap(); }
   const NavState& state() const { return state_; }
+  /// Tracking keyframes made so far (keyframe_tracking; the local path's references).
+  uint64_t keyframesMade() const { return keyframes_made_; }
   /// Global mode: frames whose pose was pulled towards an older keyframe seen again.
   int revisitCorrections() const { return refiner_.revisitCorrections() + deferred_revisits_; }
   /// Bytes of the map plus the re-observation descriptors (for the memory report).
@@ -346,6 +348,9 @@ class Odometry {
     Eigen::Matrix3d R_kf_prev_gyro = Eigen::Matrix3d::Identity();  ///< rectified left cameras
     Eigen::Matrix3d gyro_covariance = Eigen::Matrix3d::Zero();    ///< its white-noise part [rad^2]
     cv::Mat left_image, right_image;  ///< patch_refinement only: its own copies
+    /// Local mode: kd-tree over its points, the model of every frame's ICP against it (III-E),
+    /// built once with the keyframe instead of once per frame.
+    icp::PointCloudIndex model_index;
   };
   std::optional<Keyframe> keyframe_;
   uint64_t keyframes_made_ = 0;
@@ -368,6 +373,10 @@ class Odometry {
     MotionRefinementWorkspace refinement;
     std::vector<Eigen::Vector3f> cloud;     ///< the frame's stereo points for ICP / the map
     std::vector<std::pair<int, int>> seeds;  ///< ICP's descriptor seeds
+    icp::IcpWorkspace icp;
+    /// Local mode without a keyframe to track against: the previous frame's points and tree.
+    std::vector<Eigen::Vector3f> model;
+    icp::PointCloudIndex previous_index;
   };
   TrackWork work_;
   std::optional<GlobalRequest> pending_request_;  ///< deferred mode, not yet taken

@@ -136,7 +136,7 @@ TEST(BenchPlumbing, TinyStageBenchFillsEveryRow) {
   o.out_dir = (fs::temp_directory_path() / "seavio_bench_stages").string();
   fs::remove_all(o.out_dir);
   const auto rows = runStageBench(o);
-  ASSERT_EQ(rows.size(), 11u);
+  ASSERT_EQ(rows.size(), 12u);
   for (const auto& r : rows) {
     EXPECT_GT(r.samples, 0) << r.stage;
     EXPECT_GE(r.ms.p99, r.ms.median) << r.stage;
@@ -144,6 +144,9 @@ TEST(BenchPlumbing, TinyStageBenchFillsEveryRow) {
   std::ostringstream os;
   printStageTable(os, rows);
   EXPECT_NE(os.str().find("ICP vs 2600-point model"), std::string::npos);
+  // The tensor stage in two rows: RANSAC and refinement (against issue 8's goal), patches apart.
+  EXPECT_NE(os.str().find("tensor: RANSAC + motion refinement"), std::string::npos);
+  EXPECT_NE(os.str().find("tensor: patch alignment"), std::string::npos);
   fs::remove_all(o.out_dir);
 }
 

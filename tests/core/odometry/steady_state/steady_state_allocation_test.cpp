@@ -1,7 +1,7 @@
-// Issue 8: "no allocation on the per-frame path". Global mode over a rendered short-plain clip;
-// after a few frames of warm-up every buffer has its size, so a frame that stores nothing new
-// (no keyframe into the map) must not call the heap at all. Counted at the C allocator, which
-// operator new, cv::fastMalloc and Eigen all end in, so nothing escapes the count.
+// Issue 8: "no allocation on the per-frame path". Local and global mode over a rendered
+// short-plain clip; after a few frames of warm-up every buffer has its size, so a frame that
+// stores nothing new (no keyframe) must not call the heap at all. Counted at the C allocator,
+// which operator new, cv::fastMalloc and Eigen all end in, so nothing escapes the count.
 #include <atomic>
 #include <cerrno>
 #include <cstddef>
@@ -74,6 +74,49 @@ int posix_memalign(void** out, std::size_t alignment, std::size_t n) {
 
 namespace seavio::odometry {
 namespace {
+
+// Local mode: a frame that made no tracking keyframe reuses the keyframe's kd-tree and every
+// scratch buffer. A keyframe frame copies the frame and builds a tree (nanoflann's node pool).
+TEST(SteadyStateAllocations, LocalModeFramesAllocateNothingBetweenKeyframes) {
+#if !defined(SEAVIO_SANITIZED)
+  // GIVEN a short-plain clip in local mode, warmed up for 8 frames
+  constexpr int kWarmup = 8, kFrames = 16;
+  const bench::SurveyClip clip = bench::renderClip(kWarmup + kFrames);
+  std::string error;
+  auto rect = camera::StereoRectifier::create(clip.calibration, &error);
+  ASSERT_TRUE(rect) << error;
+  OdometryParams p;
+  p.mode = Mode::kLocal;
+  ASSERT_TRUE(p.keyframe_tracking);
+  Odometry odo(std::move(*rect), clip.imu_noise, p);
+  for (int k = 0; k < kWarmup; ++k) odo.process(clip.frames[k], clip.imu[k]);
+
+  // WHEN the next frames are processed with the allocator counted
+  int checked = 0, with_icp = 0;
+  for (int k = kWarmup; k < kWarmup + kFrames; ++k) {
+    const uint64_t keyframes = odo.keyframesMade();
+    g_allocations = 0;
+    g_counting = true;
+    const OdometryResult r = odo.process(clip.frames[k], clip.imu[k]);
+    g_counting = false;
+    const long n = g_allocations.load();
+    const bool made = odo.keyframesMade() != keyframes;
+    std::printf("frame %d: %ld allocations, %d ICP iterations%s\n", k, n, r.quality.icp_iterations,
+                made ? ", keyframe made" : "");
+    // THEN tracking worked with ICP as its last step, and a frame that made no keyframe made no
+    // allocation
+    EXPECT_EQ(r.source, PoseSource::kVision) << "frame " << k;
+    with_icp += r.quality.icp_iterations > 0;
+    if (!made) {
+      EXPECT_EQ(n, 0) << "frame " << k;
+      ++checked;
+    }
+  }
+  EXPECT_EQ(with_icp, kFrames);
+  // AND most frames were such frames (a keyframe serves several frames at 10 Hz)
+  EXPECT_GE(checked, kFrames / 2);
+#endif
+}
 
 TEST(SteadyStateAllocations, GlobalModeFramesAllocateNothingAfterWarmUp) {
 #if defined(SEAVIO_SANITIZED)
