@@ -68,6 +68,16 @@ Eigen::Matrix3d midAttitude(const Eigen::Matrix3d& R_start, const Eigen::Matrix3
   return R_start * se3::expSO3(0.5 * se3::logSO3(R_start.transpose() * R_end));
 }
 
+/// Local ICP's model: `index` rebuilt over the points of `features` (`scratch` holds the
+/// positions on the way, kept so that only the tree's own nodes allocate).
+void buildPointIndex(const matching::StereoFeatures& features, std::vector<Eigen::Vector3f>& scratch,
+                     icp::PointCloudIndex& index) {
+  scratch.clear();
+  reserveWithHeadroom(scratch, features.points.size());
+  for (const auto& sp : features.points) scratch.push_back(sp.p_R0);
+  index.build(scratch);
+}
+
 }  // namespace
 
 GlobalRefinerParams globalRefinerParams(const OdometryParams& p) {
@@ -517,11 +527,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
       // (no keyframe, or the keyframe lost) builds one, and that allocates (nanoflann's pool).
       const icp::PointCloudIndex* index = on_keyframe ? &keyframe_->model_index : nullptr;
       if (!index || index->size() != ref_features->points.size()) {
-        std::vector<Eigen::Vector3f>& points = work_.model;
-        points.clear();
-        reserveWithHeadroom(points, ref_features->points.size());
-        for (const auto& sp : ref_features->points) points.push_back(sp.p_R0);
-        work_.previous_index.build(points);
+        buildPointIndex(*ref_features, work_.model, work_.previous_index);
         index = &work_.previous_index;
       }
       const std::vector<Eigen::Vector3f>& model = index->points();
@@ -880,13 +886,7 @@ void Odometry::newKeyframe(const FrameFeatures& frame, const Eigen::Isometry3d& 
   k.features.points.assign(features.points.begin(), features.points.end());
   k.features.laplacian_sign.assign(features.laplacian_sign.begin(), features.laplacian_sign.end());
   features.descriptors.copyTo(k.features.descriptors);
-  if (params_.mode == Mode::kLocal) {
-    std::vector<Eigen::Vector3f>& points = work_.model;
-    points.clear();
-    reserveWithHeadroom(points, features.points.size());
-    for (const auto& sp : features.points) points.push_back(sp.p_R0);
-    k.model_index.build(points);
-  }
+  if (params_.mode == Mode::kLocal) buildPointIndex(features, work_.model, k.model_index);
   k.T_W_R0 = T_W_R0;
   k.t_ns = t_ns;
   k.id = ++keyframes_made_;

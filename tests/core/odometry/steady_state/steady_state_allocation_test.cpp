@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -24,7 +25,10 @@
 #endif
 #endif
 
-#if !defined(SEAVIO_SANITIZED)
+#if defined(SEAVIO_SANITIZED)
+#error "built without sanitizers only (tests/core/odometry/steady_state/CMakeLists.txt)"
+#endif
+
 namespace {
 std::atomic<bool> g_counting{false};
 std::atomic<long> g_allocations{0};
@@ -70,36 +74,49 @@ int posix_memalign(void** out, std::size_t alignment, std::size_t n) {
   return 0;
 }
 }
-#endif
 
 namespace seavio::odometry {
 namespace {
 
+/// Allocations made while `fn` runs.
+template <class Fn>
+long countAllocations(Fn&& fn) {
+  g_allocations = 0;
+  g_counting = true;
+  fn();
+  g_counting = false;
+  return g_allocations.load();
+}
+
+/// An odometry in `mode` over `clip`'s rig (null if the rectifier cannot be made).
+std::unique_ptr<Odometry> odometryFor(const bench::SurveyClip& clip, Mode mode) {
+  std::string error;
+  auto rect = camera::StereoRectifier::create(clip.calibration, &error);
+  EXPECT_TRUE(rect) << error;
+  if (!rect) return nullptr;
+  OdometryParams p;
+  p.mode = mode;
+  return std::make_unique<Odometry>(std::move(*rect), clip.imu_noise, p);
+}
+
 // Local mode: a frame that made no tracking keyframe reuses the keyframe's kd-tree and every
 // scratch buffer. A keyframe frame copies the frame and builds a tree (nanoflann's node pool).
 TEST(SteadyStateAllocations, LocalModeFramesAllocateNothingBetweenKeyframes) {
-#if !defined(SEAVIO_SANITIZED)
-  // GIVEN a short-plain clip in local mode, warmed up for 8 frames
+  // GIVEN a short-plain clip in local mode (keyframe tracking, the default), warmed up for 8 frames
   constexpr int kWarmup = 8, kFrames = 16;
   const bench::SurveyClip clip = bench::renderClip(kWarmup + kFrames);
-  std::string error;
-  auto rect = camera::StereoRectifier::create(clip.calibration, &error);
-  ASSERT_TRUE(rect) << error;
-  OdometryParams p;
-  p.mode = Mode::kLocal;
-  ASSERT_TRUE(p.keyframe_tracking);
-  Odometry odo(std::move(*rect), clip.imu_noise, p);
+  ASSERT_TRUE(OdometryParams{}.keyframe_tracking);
+  const std::unique_ptr<Odometry> odometry = odometryFor(clip, Mode::kLocal);
+  ASSERT_TRUE(odometry);
+  Odometry& odo = *odometry;
   for (int k = 0; k < kWarmup; ++k) odo.process(clip.frames[k], clip.imu[k]);
 
   // WHEN the next frames are processed with the allocator counted
   int checked = 0, with_icp = 0;
   for (int k = kWarmup; k < kWarmup + kFrames; ++k) {
     const uint64_t keyframes = odo.keyframesMade();
-    g_allocations = 0;
-    g_counting = true;
-    const OdometryResult r = odo.process(clip.frames[k], clip.imu[k]);
-    g_counting = false;
-    const long n = g_allocations.load();
+    OdometryResult r;
+    const long n = countAllocations([&] { r = odo.process(clip.frames[k], clip.imu[k]); });
     const bool made = odo.keyframesMade() != keyframes;
     std::printf("frame %d: %ld allocations, %d ICP iterations%s\n", k, n, r.quality.icp_iterations,
                 made ? ", keyframe made" : "");
@@ -115,39 +132,25 @@ TEST(SteadyStateAllocations, LocalModeFramesAllocateNothingBetweenKeyframes) {
   EXPECT_EQ(with_icp, kFrames);
   // AND most frames were such frames (a keyframe serves several frames at 10 Hz)
   EXPECT_GE(checked, kFrames / 2);
-#endif
 }
 
 TEST(SteadyStateAllocations, GlobalModeFramesAllocateNothingAfterWarmUp) {
-#if defined(SEAVIO_SANITIZED)
-#error "built without sanitizers only (tests/core/odometry/steady_state/CMakeLists.txt)"
-#else
   // The counter sees the allocator: one malloc is one call (called through a volatile
   // pointer, which the compiler cannot elide).
   void* (*volatile allocate)(std::size_t) = std::malloc;
-  g_allocations = 0;
-  g_counting = true;
-  void* probe = allocate(64);
-  g_counting = false;
+  void* probe = nullptr;
+  ASSERT_EQ(countAllocations([&] { probe = allocate(64); }), 1);
   std::free(probe);
-  ASSERT_EQ(g_allocations.load(), 1);
 
   // GIVEN a short-plain clip (640 x 480, 10 Hz) in global mode, warmed up for 8 frames
   constexpr int kWarmup = 8, kFrames = 8;
   const bench::SurveyClip clip = bench::renderClip(kWarmup + kFrames);
-  std::string error;
-  auto rect = camera::StereoRectifier::create(clip.calibration, &error);
-  ASSERT_TRUE(rect) << error;
-  OdometryParams p;
-  p.mode = Mode::kGlobal;
-  Odometry odo(std::move(*rect), clip.imu_noise, p);
+  const std::unique_ptr<Odometry> odometry = odometryFor(clip, Mode::kGlobal);
+  ASSERT_TRUE(odometry);
+  Odometry& odo = *odometry;
   // (the first frame sizes every buffer: counted, to show the count reaches into the
   // pipeline and OpenCV's shared library)
-  g_allocations = 0;
-  g_counting = true;
-  odo.process(clip.frames[0], clip.imu[0]);
-  g_counting = false;
-  const long first_frame = g_allocations.load();
+  const long first_frame = countAllocations([&] { odo.process(clip.frames[0], clip.imu[0]); });
   EXPECT_GT(first_frame, 20);
   std::printf("frame 0: %ld allocations\n", first_frame);
   for (int k = 1; k < kWarmup; ++k) odo.process(clip.frames[k], clip.imu[k]);
@@ -156,11 +159,8 @@ TEST(SteadyStateAllocations, GlobalModeFramesAllocateNothingAfterWarmUp) {
   int checked = 0;
   for (int k = kWarmup; k < kWarmup + kFrames; ++k) {
     const std::size_t keyframes = odo.frameMap().size();
-    g_allocations = 0;
-    g_counting = true;
-    const OdometryResult r = odo.process(clip.frames[k], clip.imu[k]);
-    g_counting = false;
-    const long n = g_allocations.load();
+    OdometryResult r;
+    const long n = countAllocations([&] { r = odo.process(clip.frames[k], clip.imu[k]); });
     const bool stored = odo.frameMap().size() != keyframes;
     std::printf("frame %d: %ld allocations, %d RANSAC inliers%s\n", k, n, r.quality.ransac_inliers,
                 stored ? ", keyframe stored" : "");
@@ -173,7 +173,6 @@ TEST(SteadyStateAllocations, GlobalModeFramesAllocateNothingAfterWarmUp) {
   }
   // AND most frames were such frames (a keyframe's storage is the map growing, not per frame)
   EXPECT_GE(checked, kFrames / 2);
-#endif
 }
 
 }  // namespace
