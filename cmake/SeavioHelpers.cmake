@@ -18,6 +18,16 @@ elseif(NOT SEAVIO_SANITIZE STREQUAL "")
   message(FATAL_ERROR "SEAVIO_SANITIZE must be '', 'address' or 'thread'")
 endif()
 
+# ASan's use-after-scope check poisons and unpoisons the shadow of every stack variable at each
+# scope's entry and exit. The pose solvers evaluate small fixed-size Eigen expressions per point
+# per iteration, with hundreds of stack temporaries per call, so the check made them ~25x slower
+# than Release (GyroBiasTilt.* 2.5 s -> 75 s) and made their end-to-end tests the ASan phase's
+# long pole. In these Eigen-heavy modules only, it is off: 3x faster there, all other ASan and
+# UBSan checks (heap, stack and global overflows, use after free, leaks, undefined behaviour)
+# stay on; every other target (features, camera, drivers, daemon, tools, tests) keeps it.
+# docs/reliability.md, "CI phase times".
+set(SEAVIO_ASAN_NO_SCOPE_MODULES geometry odometry imu icp map matching)
+
 # seavio_module(<name> [DEPS ...]): library seavio_<name> from every .cpp in the calling
 # folder, alias seavio::<name>. Headers are included as "core/<area>/<file>.hpp" from the
 # repository root. A folder with no .cpp yields a header-only INTERFACE library.
@@ -29,6 +39,9 @@ function(seavio_module name)
     target_include_directories(seavio_${name} PUBLIC ${PROJECT_SOURCE_DIR} ${PROJECT_BINARY_DIR}/generated)
     target_link_libraries(seavio_${name} PUBLIC ${ARG_DEPS} PRIVATE seavio_warnings)
     set_target_properties(seavio_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
+    if(SEAVIO_SANITIZE STREQUAL "address" AND name IN_LIST SEAVIO_ASAN_NO_SCOPE_MODULES)
+      target_compile_options(seavio_${name} PRIVATE -fno-sanitize-address-use-after-scope)
+    endif()
   else()
     add_library(seavio_${name} INTERFACE)
     target_include_directories(seavio_${name} INTERFACE ${PROJECT_SOURCE_DIR} ${PROJECT_BINARY_DIR}/generated)
