@@ -40,7 +40,8 @@ void printMetrics(std::ostream& os, const eval::TrajectoryMetrics& m) {
   os << buf;
   os << "  horizontal / vertical mean " << fmt("%.3f", m.mean_horizontal_error_m) << " / "
      << fmt("%.3f", m.mean_vertical_error_m) << " m; heading error mean " << fmt("%.2f", m.mean_heading_error_deg)
-     << " deg, max " << fmt("%.2f", m.max_heading_error_deg) << " deg\n";
+     << " deg, max " << fmt("%.2f", m.max_heading_error_deg) << " deg; tilt error mean "
+     << fmt("%.2f", m.mean_tilt_error_deg) << " deg, max " << fmt("%.2f", m.max_tilt_error_deg) << " deg\n";
   os << "\nATE RMSE after SE(3) Umeyama alignment: " << fmt("%.3f", m.ate_rmse_m) << " m\n";
   if (m.rpe_segments > 0)
     os << "RPE per 10 m (" << m.rpe_segments << " segments): translation " << fmt("%.2f", m.rpe_trans_pct)
@@ -63,7 +64,8 @@ void writeMetricsJson(const std::string& path, const eval::TrajectoryMetrics& m)
       {"final_error_m", m.final_error_m},   {"mean_error_pct", m.mean_error_pct},
       {"final_error_pct", m.final_error_pct}, {"mean_horizontal_error_m", m.mean_horizontal_error_m},
       {"mean_vertical_error_m", m.mean_vertical_error_m}, {"mean_heading_error_deg", m.mean_heading_error_deg},
-      {"max_heading_error_deg", m.max_heading_error_deg}, {"ate_rmse_m", m.ate_rmse_m},
+      {"max_heading_error_deg", m.max_heading_error_deg}, {"mean_tilt_error_deg", m.mean_tilt_error_deg},
+      {"max_tilt_error_deg", m.max_tilt_error_deg},         {"ate_rmse_m", m.ate_rmse_m},
       {"rpe_trans_pct", m.rpe_trans_pct},   {"rpe_rot_deg_per_m", m.rpe_rot_deg_per_m}};
   for (const auto& [k, v] : scalars) out << "  \"" << k << "\": " << num(v) << ",\n";
   out << "  \"rpe_segments\": " << m.rpe_segments << ",\n";
@@ -77,7 +79,17 @@ void writeMetricsJson(const std::string& path, const eval::TrajectoryMetrics& m)
   arr("t_s", t_s, false);
   arr("distance_along_m", m.distance_along_m, false);
   arr("error_m", m.error_m, false);
-  arr("heading_error_deg", m.heading_error_deg, true);
+  arr("heading_error_deg", m.heading_error_deg, false);
+  arr("tilt_error_deg", m.tilt_error_deg, false);
+  // The position error per axis of W (x, y, z: z up), after first-pose alignment.
+  std::vector<double> ex(m.gt_position.size()), ey(ex.size()), ez(ex.size());
+  for (std::size_t i = 0; i < ex.size(); ++i) {
+    const Eigen::Vector3d d = m.est_first_aligned[i] - m.gt_position[i];
+    ex[i] = d.x(), ey[i] = d.y(), ez[i] = d.z();
+  }
+  arr("error_x_m", ex, false);
+  arr("error_y_m", ey, false);
+  arr("error_z_m", ez, true);
   out << "}\n";
   if (!out) throw std::runtime_error(path + ": write error");
 }

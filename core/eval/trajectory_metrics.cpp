@@ -115,7 +115,7 @@ TrajectoryMetrics evaluateTrajectory(const std::vector<TimedPose>& gt, const std
   // Paper Table I: align on the first pose only, so the error is the drift accumulated
   // from the start.
   const Eigen::Isometry3d T_align = G[0] * E[0].inverse();
-  double sum = 0, sum2 = 0, dist = 0, sum_h = 0, sum_v = 0, sum_yaw = 0;
+  double sum = 0, sum2 = 0, dist = 0, sum_h = 0, sum_v = 0, sum_yaw = 0, sum_tilt = 0;
   for (std::size_t i = 0; i < n; ++i) {
     if (i > 0) dist += (G[i].translation() - G[i - 1].translation()).norm();
     const Eigen::Isometry3d aligned = T_align * E[i];
@@ -128,9 +128,16 @@ TrajectoryMetrics evaluateTrajectory(const std::vector<TimedPose>& gt, const std
     const Eigen::Matrix3d R_err = aligned.linear() * G[i].linear().transpose();
     const double yaw_deg =
         std::atan2(R_err(1, 0) - R_err(0, 1), R_err(0, 0) + R_err(1, 1)) * 180.0 / std::numbers::pi;
+    // Tilt: where R_err takes the vertical; atan2 of its horizontal over its vertical part
+    // stays accurate at small angles, where acos of the dot product would not.
+    const Eigen::Vector3d up = R_err.col(2);
+    const double tilt_deg = std::atan2(up.head<2>().norm(), up.z()) * 180.0 / std::numbers::pi;
     m.distance_along_m.push_back(dist);
     m.error_m.push_back(err);
     m.heading_error_deg.push_back(yaw_deg);
+    m.tilt_error_deg.push_back(tilt_deg);
+    sum_tilt += tilt_deg;
+    m.max_tilt_error_deg = std::max(m.max_tilt_error_deg, tilt_deg);
     sum_h += d.head<2>().norm();
     sum_v += std::abs(d.z());
     sum_yaw += std::abs(yaw_deg);
@@ -145,6 +152,7 @@ TrajectoryMetrics evaluateTrajectory(const std::vector<TimedPose>& gt, const std
   m.mean_horizontal_error_m = sum_h / double(n);
   m.mean_vertical_error_m = sum_v / double(n);
   m.mean_heading_error_deg = sum_yaw / double(n);
+  m.mean_tilt_error_deg = sum_tilt / double(n);
   m.std_error_m = std::sqrt(std::max(0.0, sum2 / double(n) - m.mean_error_m * m.mean_error_m));
   m.final_error_m = m.error_m.back();
   m.distance_m = dist;

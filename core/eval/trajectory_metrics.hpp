@@ -54,6 +54,12 @@ struct TrajectoryMetrics {
   /// Heading error: the first-pose-aligned attitude error's turn about W's z [deg].
   double mean_heading_error_deg = 0;  ///< mean of |heading error|
   double max_heading_error_deg = 0;   ///< largest |heading error|
+  /// Tilt error: the angle between the aligned estimate's and the truth's vertical (the roll
+  /// and pitch part of the attitude error, whatever the heading) [deg]. A tilt theta turns
+  /// every metre flown along it into theta metres of vertical error, and leaks g * theta of
+  /// false acceleration into the IMU prediction.
+  double mean_tilt_error_deg = 0;
+  double max_tilt_error_deg = 0;
 
   double ate_rmse_m = 0;            ///< after SE(3) Umeyama alignment (no scale)
   double rpe_trans_pct = 0;         ///< mean translational error per segment, % of segment length
@@ -65,6 +71,7 @@ struct TrajectoryMetrics {
   std::vector<double> distance_along_m;            ///< ground-truth distance travelled so far
   std::vector<double> error_m;                     ///< first-pose-aligned position error
   std::vector<double> heading_error_deg;           ///< signed, estimate minus truth, about W's z
+  std::vector<double> tilt_error_deg;              ///< unsigned, see mean_tilt_error_deg
   std::vector<Eigen::Vector3d> gt_position;        ///< associated ground truth in W
   std::vector<Eigen::Vector3d> est_first_aligned;  ///< estimate after first-pose alignment
   std::vector<Eigen::Vector3d> est_umeyama_aligned;///< estimate after Umeyama alignment

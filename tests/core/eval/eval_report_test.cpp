@@ -65,7 +65,17 @@ TEST(EvalReport, JsonHoldsFiguresAndArrays) {
   EXPECT_NE(s.find(buf), std::string::npos);
   std::snprintf(buf, sizeof(buf), "\"mean_vertical_error_m\": %.9g", m.mean_vertical_error_m);
   EXPECT_NE(s.find(buf), std::string::npos);
-  EXPECT_EQ(std::count(s.begin(), s.end(), '['), 4);
+  std::snprintf(buf, sizeof(buf), "\"mean_tilt_error_deg\": %.9g", m.mean_tilt_error_deg);
+  EXPECT_NE(s.find(buf), std::string::npos);
+  // Per pose: time, distance, error, heading, tilt and the error along W's x, y and z; the
+  // 10 % larger arc is off by a tenth of its position, in the plane.
+  EXPECT_EQ(std::count(s.begin(), s.end(), '['), 8);
+  const double last_error_y = m.est_first_aligned.back().y() - m.gt_position.back().y();
+  EXPECT_NEAR(last_error_y, 0.1 * gt.back().T_W_B.translation().y(), 1e-9);
+  std::snprintf(buf, sizeof(buf), ", %.9g]", last_error_y);
+  const std::size_t y_key = s.find("\"error_y_m\": [");
+  ASSERT_NE(y_key, std::string::npos);
+  EXPECT_NE(s.find(buf, y_key), std::string::npos);
   EXPECT_THROW(writeMetricsJson("/nonexistent_dir/m.json", m), std::runtime_error);
 }
 

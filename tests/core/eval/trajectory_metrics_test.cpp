@@ -96,6 +96,11 @@ TEST(TrajectoryMetrics, SplitsTheErrorIntoHorizontalVerticalAndHeading) {
   EXPECT_NEAR(m.heading_error_deg[100], 0.1 * 180.0 / M_PI, 1e-9);
   EXPECT_NEAR(m.max_heading_error_deg, 0.1 * 180.0 / M_PI, 1e-9);
   EXPECT_NEAR(m.mean_heading_error_deg, 0.05 * 180.0 / M_PI, 1e-9);
+  // AND the tilt error is the roll drift alone, the heading turn left out.
+  ASSERT_EQ(m.tilt_error_deg.size(), 101u);
+  EXPECT_NEAR(m.tilt_error_deg[100], 0.2 * 180.0 / M_PI, 1e-9);
+  EXPECT_NEAR(m.max_tilt_error_deg, 0.2 * 180.0 / M_PI, 1e-9);
+  EXPECT_NEAR(m.mean_tilt_error_deg, 0.1 * 180.0 / M_PI, 1e-9);
 
   // GIVEN a cross-track drift of 3 cm per metre, heading exact, seen from a world frame
   // turned by 0.2 rad about z.
@@ -111,6 +116,7 @@ TEST(TrajectoryMetrics, SplitsTheErrorIntoHorizontalVerticalAndHeading) {
   EXPECT_NEAR(h.mean_horizontal_error_m, 0.15, 1e-9);
   EXPECT_NEAR(h.mean_vertical_error_m, 0.0, 1e-9);
   EXPECT_NEAR(h.max_heading_error_deg, 0.0, 1e-9);
+  EXPECT_NEAR(h.max_tilt_error_deg, 0.0, 1e-9);
 }
 
 TEST(TrajectoryMetrics, InterpolatesGroundTruthBetweenSamples) {
