@@ -25,7 +25,7 @@ struct SimulateOptions {
   int frames = 0;
   int width = 0;
   int64_t seed = -1;
-  double imu_rate = 0, frame_rate = 0, altitude = 0, speed = 0, tilt_deg = 0;
+  double imu_rate = 0, frame_rate = 0, altitude = 0, speed = 0, tilt_deg = 0, still_s = 0;
   bool snow = false, unlimited_turn_rate = false, constant_depth = false, no_sway = false;
   std::vector<std::string> vision_loss;
   double vision_loss_altitude = 0;
@@ -55,6 +55,7 @@ void runSimulate(const SimulateOptions& o, CLI::App& cmd) {
   if (cmd.count("--altitude")) c.trajectory.altitude_m = o.altitude;
   if (cmd.count("--speed")) c.trajectory.speed_m_s = o.speed;
   if (cmd.count("--tilt-deg")) c.rig.tilt_deg = o.tilt_deg;
+  if (cmd.count("--still-s")) c.trajectory.still_s = o.still_s;
   if (o.snow) c.snow.enabled = true;
   if (o.unlimited_turn_rate) c.trajectory.unlimited_turn_rate = true;
   if (o.constant_depth) c.trajectory.follow_altitude = false;
@@ -115,6 +116,8 @@ const RegisterCommand kRegister{"simulate", [](CLI::App& app) {
   cmd->add_option("--altitude", opts->altitude, "altitude above the seafloor [m]");
   cmd->add_option("--speed", opts->speed, "cruise speed [m/s]");
   cmd->add_option("--tilt-deg", opts->tilt_deg, "forward tilt of the rig [deg]");
+  cmd->add_option("--still-s", opts->still_s,
+                  "time at rest before the survey starts [s] (default 2; the gyro bias is learnt over it)");
   cmd->add_flag("--snow", opts->snow, "add marine snow");
   cmd->add_flag("--unlimited-turn-rate", opts->unlimited_turn_rate, "the paper's near-instant turns");
   cmd->add_flag("--constant-depth", opts->constant_depth, "hold depth instead of following the relief");

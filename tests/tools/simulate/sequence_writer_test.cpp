@@ -165,5 +165,41 @@ TEST(SimulateCli, RippleAmplitudeZeroRendersAFloorWithoutSandRipples) {
   EXPECT_LT(diff, 60.0);
 }
 
+TEST(SimulateCli, StillStartHoldsTheVehicleAtRestForTheGivenTime) {
+  // The still start is where the odometry learns the gyro bias (core/odometry/odometry.cpp):
+  // how long it lasts sets the start-up heading error (docs/benchmarks.md, issue 5).
+  const std::string exe = std::string(SEAVIO_BINARY_DIR) + "/bin/seavio";
+  if (!fs::exists(exe)) GTEST_SKIP() << "build the seavio target to run the CLI checks";
+  test::ScratchDir dir("cli_still");
+  const auto render = [&](const std::string& name, const std::string& extra) {
+    const std::string out = (dir.path() / name).string();
+    return std::system((exe + " simulate short-plain --frames 8 --frame-rate 1 --width 64 --seed 3 " + extra + " --out " + out +
+                        " 2>/dev/null")
+                           .c_str());
+  };
+  ASSERT_EQ(render("default", ""), 0);
+  ASSERT_EQ(render("long", "--still-s 5"), 0);
+  EXPECT_NE(render("negative", "--still-s -1"), 0);
+  // The last time the vehicle is still within 1 mm of where it started [s after the first state].
+  const auto stillUntil = [&](const std::string& name) {
+    const drivers::Dataset d = drivers::loadEuroc((dir.path() / name).string());
+    EXPECT_FALSE(d.ground_truth.empty());
+    if (d.ground_truth.empty()) return -1.0;
+    const auto& first = d.ground_truth.front();
+    double last_s = 0;
+    for (const auto& g : d.ground_truth) {
+      if ((g.T_W_B.translation() - first.T_W_B.translation()).norm() > 1e-3) break;
+      last_s = 1e-9 * static_cast<double>(g.t_ns - first.t_ns);
+    }
+    return last_s;
+  };
+  const double default_s = stillUntil("default"), long_s = stillUntil("long");
+  // At rest for the still time, then a smooth ramp: a millimetre takes a little longer.
+  EXPECT_GE(default_s, 2.0);
+  EXPECT_LT(default_s, 3.0);
+  EXPECT_GE(long_s, 5.0);
+  EXPECT_LT(long_s, 6.0);
+}
+
 }  // namespace
 }  // namespace seavio::simulate
