@@ -173,9 +173,8 @@ TEST(SimulateCli, StillStartHoldsTheVehicleAtRestForTheGivenTime) {
   test::ScratchDir dir("cli_still");
   const auto render = [&](const std::string& name, const std::string& extra) {
     const std::string out = (dir.path() / name).string();
-    return std::system((exe + " simulate short-plain --frames 8 --frame-rate 1 --width 64 --seed 3 " + extra + " --out " + out +
-                        " 2>/dev/null")
-                           .c_str());
+    const std::string args = " simulate short-plain --frames 8 --frame-rate 1 --width 64 --seed 3 ";
+    return std::system((exe + args + extra + " --out " + out + " 2>/dev/null").c_str());
   };
   ASSERT_EQ(render("default", ""), 0);
   ASSERT_EQ(render("long", "--still-s 5"), 0);
