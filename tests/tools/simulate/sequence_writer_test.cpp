@@ -138,17 +138,20 @@ TEST(SimulateCli, BadPresetAndExistingDatasetExitNonZero) {
   EXPECT_EQ(std::system((exe + " simulate short-plain --frames 1 --force --out " + out + " 2>/dev/null").c_str()), 0);
 }
 
+std::string seavioExe() { return std::string(SEAVIO_BINARY_DIR) + "/bin/seavio"; }
+
+/// `seavio simulate ARGS --out OUT`, quiet; its exit status.
+int simulateCli(const fs::path& out, const std::string& args) {
+  return std::system((seavioExe() + " simulate " + args + " --out " + out.string() + " 2>/dev/null").c_str());
+}
+
 TEST(SimulateCli, RippleAmplitudeZeroRendersAFloorWithoutSandRipples) {
   // The control for the lit-ripple scale error (docs/architecture.md, issue 4): the same seed
   // and path over a floor whose only change is the ripples.
-  const std::string exe = std::string(SEAVIO_BINARY_DIR) + "/bin/seavio";
-  if (!fs::exists(exe)) GTEST_SKIP() << "build the seavio target to run the CLI checks";
+  if (!fs::exists(seavioExe())) GTEST_SKIP() << "build the seavio target to run the CLI checks";
   test::ScratchDir dir("cli_ripples");
   const auto render = [&](const std::string& name, const std::string& extra) {
-    const std::string out = (dir.path() / name).string();
-    return std::system((exe + " simulate short-plain --frames 1 --width 160 --seed 3 " + extra + " --out " + out +
-                        " 2>/dev/null")
-                           .c_str());
+    return simulateCli(dir.path() / name, "short-plain --frames 1 --width 160 --seed 3 " + extra);
   };
   ASSERT_EQ(render("rippled", ""), 0);
   ASSERT_EQ(render("smooth", "--ripple-amplitude 0"), 0);
@@ -168,13 +171,10 @@ TEST(SimulateCli, RippleAmplitudeZeroRendersAFloorWithoutSandRipples) {
 TEST(SimulateCli, StillStartHoldsTheVehicleAtRestForTheGivenTime) {
   // The still start is where the odometry learns the gyro bias (core/odometry/odometry.cpp):
   // how long it lasts sets the start-up heading error (docs/benchmarks.md, issue 5).
-  const std::string exe = std::string(SEAVIO_BINARY_DIR) + "/bin/seavio";
-  if (!fs::exists(exe)) GTEST_SKIP() << "build the seavio target to run the CLI checks";
+  if (!fs::exists(seavioExe())) GTEST_SKIP() << "build the seavio target to run the CLI checks";
   test::ScratchDir dir("cli_still");
   const auto render = [&](const std::string& name, const std::string& extra) {
-    const std::string out = (dir.path() / name).string();
-    const std::string args = " simulate short-plain --frames 8 --frame-rate 1 --width 64 --seed 3 ";
-    return std::system((exe + args + extra + " --out " + out + " 2>/dev/null").c_str());
+    return simulateCli(dir.path() / name, "short-plain --frames 8 --frame-rate 1 --width 64 --seed 3 " + extra);
   };
   ASSERT_EQ(render("default", ""), 0);
   ASSERT_EQ(render("long", "--still-s 5"), 0);
