@@ -126,38 +126,40 @@ TEST(SequenceWriter, BadOutputFolderAndParametersAreClearErrors) {
   EXPECT_FALSE(fs::exists(dir.path() / "ok"));
 }
 
-TEST(SimulateCli, BadPresetAndExistingDatasetExitNonZero) {
-  const std::string exe = std::string(SEAVIO_BINARY_DIR) + "/bin/seavio";
-  if (!fs::exists(exe)) GTEST_SKIP() << "build the seavio target to run the CLI checks";
-  test::ScratchDir dir("cli");
-  const std::string out = (dir.path() / "seq").string();
-  EXPECT_NE(std::system((exe + " simulate no-such-preset --out " + out + " 2>/dev/null").c_str()), 0);
-  EXPECT_NE(std::system((exe + " simulate short-plain --imu-rate 20 --out " + out + " 2>/dev/null").c_str()), 0);
-  EXPECT_EQ(std::system((exe + " simulate short-plain --frames 1 --out " + out + " 2>/dev/null").c_str()), 0);
-  EXPECT_NE(std::system((exe + " simulate short-plain --frames 1 --out " + out + " 2>/dev/null").c_str()), 0);
-  EXPECT_EQ(std::system((exe + " simulate short-plain --frames 1 --force --out " + out + " 2>/dev/null").c_str()), 0);
+/// `seavio simulate` as a user runs it: each test renders into its own scratch folder.
+class SimulateCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (!fs::exists(exe_)) GTEST_SKIP() << "build the seavio target to run the CLI checks";
+  }
+  /// `seavio simulate ARGS --out DIR/NAME`, quiet; its exit status.
+  int render(const std::string& name, const std::string& args) const {
+    return std::system((exe_ + " simulate " + args + " --out " + path(name).string() + " 2>/dev/null").c_str());
+  }
+  fs::path path(const std::string& name) const { return dir_.path() / name; }
+
+ private:
+  const std::string exe_ = std::string(SEAVIO_BINARY_DIR) + "/bin/seavio";
+  test::ScratchDir dir_{"cli"};
+};
+
+TEST_F(SimulateCli, BadPresetAndExistingDatasetExitNonZero) {
+  EXPECT_NE(render("seq", "no-such-preset"), 0);
+  EXPECT_NE(render("seq", "short-plain --imu-rate 20"), 0);
+  EXPECT_EQ(render("seq", "short-plain --frames 1"), 0);
+  EXPECT_NE(render("seq", "short-plain --frames 1"), 0);
+  EXPECT_EQ(render("seq", "short-plain --frames 1 --force"), 0);
 }
 
-std::string seavioExe() { return std::string(SEAVIO_BINARY_DIR) + "/bin/seavio"; }
-
-/// `seavio simulate ARGS --out OUT`, quiet; its exit status.
-int simulateCli(const fs::path& out, const std::string& args) {
-  return std::system((seavioExe() + " simulate " + args + " --out " + out.string() + " 2>/dev/null").c_str());
-}
-
-TEST(SimulateCli, RippleAmplitudeZeroRendersAFloorWithoutSandRipples) {
+TEST_F(SimulateCli, RippleAmplitudeZeroRendersAFloorWithoutSandRipples) {
   // The control for the lit-ripple scale error (docs/architecture.md, issue 4): the same seed
   // and path over a floor whose only change is the ripples.
-  if (!fs::exists(seavioExe())) GTEST_SKIP() << "build the seavio target to run the CLI checks";
-  test::ScratchDir dir("cli_ripples");
-  const auto render = [&](const std::string& name, const std::string& extra) {
-    return simulateCli(dir.path() / name, "short-plain --frames 1 --width 160 --seed 3 " + extra);
-  };
-  ASSERT_EQ(render("rippled", ""), 0);
-  ASSERT_EQ(render("smooth", "--ripple-amplitude 0"), 0);
-  EXPECT_NE(render("negative", "--ripple-amplitude -1"), 0);
+  const std::string args = "short-plain --frames 1 --width 160 --seed 3 ";
+  ASSERT_EQ(render("rippled", args), 0);
+  ASSERT_EQ(render("smooth", args + "--ripple-amplitude 0"), 0);
+  EXPECT_NE(render("negative", args + "--ripple-amplitude -1"), 0);
   const auto firstImage = [&](const std::string& name) {
-    const drivers::Dataset d = drivers::loadEuroc((dir.path() / name).string());
+    const drivers::Dataset d = drivers::loadEuroc(path(name).string());
     return drivers::loadFrame(d, 0).left;
   };
   const cv::Mat rippled = firstImage("rippled"), smooth = firstImage("smooth");
@@ -168,20 +170,16 @@ TEST(SimulateCli, RippleAmplitudeZeroRendersAFloorWithoutSandRipples) {
   EXPECT_LT(diff, 60.0);
 }
 
-TEST(SimulateCli, StillStartHoldsTheVehicleAtRestForTheGivenTime) {
+TEST_F(SimulateCli, StillStartHoldsTheVehicleAtRestForTheGivenTime) {
   // The still start is where the odometry learns the gyro bias (core/odometry/odometry.cpp):
   // how long it lasts sets the start-up heading error (docs/benchmarks.md, issue 5).
-  if (!fs::exists(seavioExe())) GTEST_SKIP() << "build the seavio target to run the CLI checks";
-  test::ScratchDir dir("cli_still");
-  const auto render = [&](const std::string& name, const std::string& extra) {
-    return simulateCli(dir.path() / name, "short-plain --frames 8 --frame-rate 1 --width 64 --seed 3 " + extra);
-  };
-  ASSERT_EQ(render("default", ""), 0);
-  ASSERT_EQ(render("long", "--still-s 5"), 0);
-  EXPECT_NE(render("negative", "--still-s -1"), 0);
+  const std::string args = "short-plain --frames 8 --frame-rate 1 --width 64 --seed 3 ";
+  ASSERT_EQ(render("default", args), 0);
+  ASSERT_EQ(render("long", args + "--still-s 5"), 0);
+  EXPECT_NE(render("negative", args + "--still-s -1"), 0);
   // The last time the vehicle is still within 1 mm of where it started [s after the first state].
   const auto stillUntil = [&](const std::string& name) {
-    const drivers::Dataset d = drivers::loadEuroc((dir.path() / name).string());
+    const drivers::Dataset d = drivers::loadEuroc(path(name).string());
     EXPECT_FALSE(d.ground_truth.empty());
     if (d.ground_truth.empty()) return -1.0;
     const auto& first = d.ground_truth.front();
