@@ -750,6 +750,32 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   }
   last_motion_ = prev.T_W_R0.inverse() * T_W_R0;
   last_dt_s_ = dt_s;
+  if (params_.gyro_bias_gravity_window_s > 0) {
+    // Tilt rates of the gyro bias from gravity (core/imu/gravity_bias_observer.hpp): only over
+    // contiguous visual frames, and once the still start ended. A map correction of this frame
+    // moves the chain: the observer's windows and this interval's start follow it into the
+    // corrected frame (the interval ends at the corrected pose).
+    if (r.source == PoseSource::kVision && have_imu && !interval.empty() && !still_start_) {
+      Eigen::Vector3d p0_W = p_start_W;
+      Eigen::Matrix3d R0_W_B = R_start_W_B;
+      if (map_delta_W) {
+        gravity_bias_.moveChain(*map_delta_W);
+        p0_W = *map_delta_W * p0_W;
+        R0_W_B = map_delta_W->linear() * R0_W_B;
+      }
+      const Eigen::Vector3d f_B = meanSpecificForce(interval, state_.accel_bias_m_s2);
+      const Eigen::Matrix3d R_mid = midAttitude(R0_W_B, state_.T_W_B.rotation());
+      if (const auto eps = gravity_bias_.add(t_start_ns, p0_W, state_.t_ns, state_.T_W_B.translation(), R_mid, f_B,
+                                             state_.T_W_B.rotation()))
+        state_.gyro_bias_rad_s += params_.gyro_bias_gravity_gain * *eps;
+    } else {
+      gravity_bias_.reset();
+    }
+  }
+
+  // The two absolute tilt references below come after the tilt-rate observer has taken this
+  // interval: the chain turns they apply move the observer's windows with it (turnChain), so
+  // it does not read their step as a gyro-bias rate and steer the chain back.
   if (params_.accel_bias_estimation && have_imu) {
     // Accelerometer bias and tilt (accel_bias_estimation, core/imu/accel_bias_estimator.hpp):
     // this interval into the window; a fix that ends a long enough window updates the filter,
@@ -782,29 +808,6 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
       misalignment.z() = 0;
       const double gain = 1.0 - std::exp(-dt_s / params_.gravity_tilt_time_constant_s);
       turnChain(se3::expSO3(gain * misalignment), T_W_R0);
-    }
-  }
-
-  if (params_.gyro_bias_gravity_window_s > 0) {
-    // Tilt rates of the gyro bias from gravity (core/imu/gravity_bias_observer.hpp): only over
-    // contiguous visual frames, and once the still start ended. A map correction of this frame
-    // moves the chain: the observer's windows and this interval's start follow it into the
-    // corrected frame (the interval ends at the corrected pose).
-    if (r.source == PoseSource::kVision && have_imu && !interval.empty() && !still_start_) {
-      Eigen::Vector3d p0_W = p_start_W;
-      Eigen::Matrix3d R0_W_B = R_start_W_B;
-      if (map_delta_W) {
-        gravity_bias_.moveChain(*map_delta_W);
-        p0_W = *map_delta_W * p0_W;
-        R0_W_B = map_delta_W->linear() * R0_W_B;
-      }
-      const Eigen::Vector3d f_B = meanSpecificForce(interval, state_.accel_bias_m_s2);
-      const Eigen::Matrix3d R_mid = midAttitude(R0_W_B, state_.T_W_B.rotation());
-      if (const auto eps = gravity_bias_.add(t_start_ns, p0_W, state_.t_ns, state_.T_W_B.translation(), R_mid, f_B,
-                                             state_.T_W_B.rotation()))
-        state_.gyro_bias_rad_s += params_.gyro_bias_gravity_gain * *eps;
-    } else {
-      gravity_bias_.reset();
     }
   }
 
@@ -937,6 +940,7 @@ void Odometry::turnChain(const Eigen::Matrix3d& R, Eigen::Isometry3d& T_W_R0) {
   state_.v_W = D.linear() * state_.v_W;
   T_W_R0 = orthonormalized(D * T_W_R0);
   if (keyframe_) keyframe_->T_W_R0 = orthonormalized(D * keyframe_->T_W_R0);
+  gravity_bias_.moveChain(D);
 }
 
 }  // namespace seavio::odometry

@@ -284,7 +284,8 @@ class Odometry {
   };
   void initialise(const FrameFeatures& frame, std::span<const ImuSample> imu);
   /// Turns the chain by `R` (in W) about the current position: the state, the frame's `T_W_R0`
-  /// and the keyframe with it, so the next frame tracked against them carries the correction.
+  /// and the keyframe with it, so the next frame tracked against them carries the correction;
+  /// the gravity tilt-rate observer's windows move too (a correction is no gyro-bias rate).
   void turnChain(const Eigen::Matrix3d& R, Eigen::Isometry3d& T_W_R0);
   /// Makes the frame just tracked (pose `T_W_R0`, the current pose covariance) the keyframe.
   void newKeyframe(const FrameFeatures& frame, const Eigen::Isometry3d& T_W_R0, int64_t t_ns);
