@@ -31,6 +31,7 @@ struct SimulateOptions {
   double vision_loss_altitude = 0;
   double ripple_amplitude_mm = 0;
   double accel_random_walk = 0, gyro_random_walk = 0;
+  double imu_lead_s = 0;
 };
 
 void runSimulate(const SimulateOptions& o, CLI::App& cmd) {
@@ -54,6 +55,7 @@ void runSimulate(const SimulateOptions& o, CLI::App& cmd) {
   if (cmd.count("--imu-rate")) c.imu.rate_hz = o.imu_rate;
   if (cmd.count("--accel-random-walk")) c.imu.accelerometer_random_walk = o.accel_random_walk;
   if (cmd.count("--gyro-random-walk")) c.imu.gyroscope_random_walk = o.gyro_random_walk;
+  if (cmd.count("--imu-lead-s")) c.imu_lead_s = o.imu_lead_s;
   if (cmd.count("--frame-rate")) c.frame_rate_hz = o.frame_rate;
   if (cmd.count("--altitude")) c.trajectory.altitude_m = o.altitude;
   if (cmd.count("--speed")) c.trajectory.speed_m_s = o.speed;
@@ -121,6 +123,8 @@ const RegisterCommand kRegister{"simulate", [](CLI::App& app) {
                   "accelerometer bias random walk [m/s^3/sqrt(Hz)] (default 3e-3, EuRoC's sensor.yaml)");
   cmd->add_option("--gyro-random-walk", opts->gyro_random_walk,
                   "gyroscope bias random walk [rad/s^2/sqrt(Hz)] (default 1.9393e-5, EuRoC's sensor.yaml)");
+  cmd->add_option("--imu-lead-s", opts->imu_lead_s,
+                  "IMU samples before the first frame, vehicle parked [s] (default 1; 0: renders before stop 33)");
   cmd->add_option("--frame-rate", opts->frame_rate, "camera frame rate [Hz]");
   cmd->add_option("--altitude", opts->altitude, "altitude above the seafloor [m]");
   cmd->add_option("--speed", opts->speed, "cruise speed [m/s]");

@@ -32,6 +32,12 @@ class ImuSimulator {
   /// Samples from t = 0 to `end_s` inclusive at noise.rate_hz. `noiseless` keeps biases at zero
   /// and adds no noise (used to check consistency).
   ImuSequence simulate(const Trajectory& trajectory, double end_s, std::mt19937& rng, bool noiseless = false) const;
+  /// Prepends `lead_s` of samples before t = 0 with the vehicle parked where the trajectory
+  /// starts, as a real IMU streams before the camera's first frame (the odometry levels itself
+  /// on the second before it). The biases walk back from the sequence's first; the noise comes
+  /// from its own generator (`seed`), so the samples from t = 0 on are unchanged.
+  void prependLead(ImuSequence& sequence, const Trajectory& trajectory, double lead_s, uint32_t seed,
+                   bool noiseless = false) const;
   /// The noiseless measurement at one state.
   static ImuSample idealSample(const BodyState& s, int64_t t_ns);
 

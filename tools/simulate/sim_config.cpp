@@ -62,6 +62,7 @@ void validate(const SimConfig& c) {
   check(c.frame_rate_hz > 0 && c.frame_rate_hz <= 100, "frame-rate", "must be in (0, 100] Hz");
   check(c.imu.rate_hz >= 100 && c.imu.rate_hz <= 400, "imu-rate", "must be in [100, 400] Hz");
   check(c.imu.rate_hz >= c.frame_rate_hz, "imu-rate", "must be >= the frame rate");
+  check(c.imu_lead_s >= 0 && c.imu_lead_s <= 1, "imu-lead-s", "must be in [0, 1] s (the first frame is at 1 s)");
   check(c.imu.gyroscope_noise_density >= 0 && c.imu.gyroscope_random_walk >= 0 &&
             c.imu.accelerometer_noise_density >= 0 && c.imu.accelerometer_random_walk >= 0,
         "imu noise", "densities must be >= 0");

@@ -123,6 +123,9 @@ struct SimConfig {
   imu::ImuNoise imu;                        ///< densities and rate_hz of the IMU
   double initial_gyro_bias_sigma = 2e-3;    ///< [rad/s]
   double initial_accel_bias_sigma = 2e-2;   ///< [m/s^2]
+  /// IMU samples before the first frame [s], the vehicle parked: a real IMU streams before the
+  /// camera starts, and the odometry levels itself over the second before its first frame.
+  double imu_lead_s = 1.0;
   RigConfig rig;
   TrajectoryConfig trajectory;
   SeafloorConfig seafloor;
