@@ -35,7 +35,8 @@ class ImuSimulator {
   /// Prepends `lead_s` of samples before t = 0 with the vehicle parked where the trajectory
   /// starts, as a real IMU streams before the camera's first frame (the odometry levels itself
   /// on the second before it). The biases walk back from the sequence's first; the noise comes
-  /// from its own generator (`seed`), so the samples from t = 0 on are unchanged.
+  /// from its own generator (`seed`), so the samples from t = 0 on are unchanged. The ground
+  /// truth gets the lead too; the sequence writer writes it from the first frame on.
   void prependLead(ImuSequence& sequence, const Trajectory& trajectory, double lead_s, uint32_t seed,
                    bool noiseless = false) const;
   /// The noiseless measurement at one state.
