@@ -3,6 +3,19 @@
 #include <cmath>
 
 namespace seavio::simulate {
+namespace {
+
+/// Per-sample standard deviations of the white noise and of one step of the bias walks.
+struct SampleSigmas {
+  explicit SampleSigmas(const imu::ImuNoise& n)
+      : gyro_white(n.gyroscope_noise_density * std::sqrt(n.rate_hz)),
+        accel_white(n.accelerometer_noise_density * std::sqrt(n.rate_hz)),
+        gyro_walk(n.gyroscope_random_walk * std::sqrt(1.0 / n.rate_hz)),
+        accel_walk(n.accelerometer_random_walk * std::sqrt(1.0 / n.rate_hz)) {}
+  double gyro_white, accel_white, gyro_walk, accel_walk;
+};
+
+}  // namespace
 
 int64_t sampleTimeNs(int64_t k, double rate_hz) {
   const double period_ns = 1e9 / rate_hz;
@@ -25,22 +38,18 @@ ImuSample ImuSimulator::idealSample(const BodyState& s, int64_t t_ns) {
 ImuSequence ImuSimulator::simulate(const Trajectory& traj, double end_s, std::mt19937& rng, bool noiseless) const {
   std::normal_distribution<double> n01(0.0, 1.0);
   auto randn3 = [&] { return Eigen::Vector3d(n01(rng), n01(rng), n01(rng)); };
-  const double rate = noise_.rate_hz, dt = 1.0 / rate;
-  const double sg = noise_.gyroscope_noise_density * std::sqrt(rate);
-  const double sa = noise_.accelerometer_noise_density * std::sqrt(rate);
-  const double wg = noise_.gyroscope_random_walk * std::sqrt(dt);
-  const double wa = noise_.accelerometer_random_walk * std::sqrt(dt);
+  const SampleSigmas sig(noise_);
   Eigen::Vector3d bg = Eigen::Vector3d::Zero(), ba = Eigen::Vector3d::Zero();
   if (!noiseless) {
     bg = bg0_ * randn3();
     ba = ba0_ * randn3();
   }
   ImuSequence out;
-  const auto n = static_cast<int64_t>(std::floor(end_s * rate + 1e-9)) + 1;
+  const auto n = static_cast<int64_t>(std::floor(end_s * noise_.rate_hz + 1e-9)) + 1;
   out.samples.reserve(static_cast<size_t>(n));
   out.ground_truth.reserve(static_cast<size_t>(n));
   for (int64_t k = 0; k < n; ++k) {
-    const int64_t t_ns = sampleTimeNs(k, rate);
+    const int64_t t_ns = sampleTimeNs(k, noise_.rate_hz);
     const BodyState s = traj.at(trajectoryTime(t_ns));
     ImuSample m = idealSample(s, t_ns);
     NavState gt;
@@ -50,10 +59,10 @@ ImuSequence ImuSimulator::simulate(const Trajectory& traj, double end_s, std::mt
     gt.gyro_bias_rad_s = bg;
     gt.accel_bias_m_s2 = ba;
     if (!noiseless) {
-      m.gyro_rad_s += bg + sg * randn3();
-      m.accel_m_s2 += ba + sa * randn3();
-      bg += wg * randn3();
-      ba += wa * randn3();
+      m.gyro_rad_s += bg + sig.gyro_white * randn3();
+      m.accel_m_s2 += ba + sig.accel_white * randn3();
+      bg += sig.gyro_walk * randn3();
+      ba += sig.accel_walk * randn3();
     }
     out.samples.push_back(m);
     out.ground_truth.push_back(gt);
@@ -68,11 +77,7 @@ void ImuSimulator::prependLead(ImuSequence& sequence, const Trajectory& trajecto
   std::mt19937 rng(seed);
   std::normal_distribution<double> n01(0.0, 1.0);
   auto randn3 = [&] { return Eigen::Vector3d(n01(rng), n01(rng), n01(rng)); };
-  const double rate = noise_.rate_hz, dt = 1.0 / rate;
-  const double sg = noise_.gyroscope_noise_density * std::sqrt(rate);
-  const double sa = noise_.accelerometer_noise_density * std::sqrt(rate);
-  const double wg = noise_.gyroscope_random_walk * std::sqrt(dt);
-  const double wa = noise_.accelerometer_random_walk * std::sqrt(dt);
+  const SampleSigmas sig(noise_);
   BodyState parked = trajectory.at(0.0);
   parked.v_W.setZero();
   parked.a_W.setZero();
@@ -84,14 +89,14 @@ void ImuSimulator::prependLead(ImuSequence& sequence, const Trajectory& trajecto
   lead.ground_truth.resize(static_cast<size_t>(n));
   for (int64_t k = -1; k >= -n; --k) {  // backwards from the first sample
     if (!noiseless) {
-      bg -= wg * randn3();
-      ba -= wa * randn3();
+      bg -= sig.gyro_walk * randn3();
+      ba -= sig.accel_walk * randn3();
     }
-    const int64_t t_ns = sampleTimeNs(k, rate);
+    const int64_t t_ns = sampleTimeNs(k, noise_.rate_hz);
     ImuSample m = idealSample(parked, t_ns);
     if (!noiseless) {
-      m.gyro_rad_s += bg + sg * randn3();
-      m.accel_m_s2 += ba + sa * randn3();
+      m.gyro_rad_s += bg + sig.gyro_white * randn3();
+      m.accel_m_s2 += ba + sig.accel_white * randn3();
     }
     NavState gt;
     gt.t_ns = t_ns;
