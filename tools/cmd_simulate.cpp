@@ -30,6 +30,7 @@ struct SimulateOptions {
   std::vector<std::string> vision_loss;
   double vision_loss_altitude = 0;
   double ripple_amplitude_mm = 0;
+  std::string imu_model;
   double accel_random_walk = 0, gyro_random_walk = 0;
   double imu_lead_s = 0;
 };
@@ -53,6 +54,11 @@ void runSimulate(const SimulateOptions& o, CLI::App& cmd) {
     c.seafloor.resolution_m = std::min(c.seafloor.resolution_m / f, 0.05);
   }
   if (cmd.count("--imu-rate")) c.imu.rate_hz = o.imu_rate;
+  if (cmd.count("--imu-model")) {
+    const double rate_hz = c.imu.rate_hz;
+    c.imu = simulate::imuModel(o.imu_model);
+    c.imu.rate_hz = rate_hz;
+  }
   if (cmd.count("--accel-random-walk")) c.imu.accelerometer_random_walk = o.accel_random_walk;
   if (cmd.count("--gyro-random-walk")) c.imu.gyroscope_random_walk = o.gyro_random_walk;
   if (cmd.count("--imu-lead-s")) c.imu_lead_s = o.imu_lead_s;
@@ -117,12 +123,14 @@ const RegisterCommand kRegister{"simulate", [](CLI::App& app) {
   cmd->add_option("--seed", opts->seed, "random seed (seafloor, snow, IMU noise)");
   cmd->add_option("--width", opts->width, "image width [px], height 3/4 of it, same field of view (default 640)");
   cmd->add_option("--imu-rate", opts->imu_rate, "IMU rate [Hz], 100-400");
-  // The presets' bias walks are Kalibr's EuRoC sensor.yaml values, inflated for robustness
-  // (VINS-Mono runs EuRoC with 4e-5 and 2e-6): these options render a steadier IMU.
+  // The model sets all four densities; the walk options then override its walks.
+  cmd->add_option("--imu-model", opts->imu_model,
+                  "IMU noise: adis16448 (default; bias walks as its datasheet's in-run stability) | "
+                  "euroc-kalibr (EuRoC's inflated Kalibr walks, the presets' IMU until stop 34)");
   cmd->add_option("--accel-random-walk", opts->accel_random_walk,
-                  "accelerometer bias random walk [m/s^3/sqrt(Hz)] (default 3e-3, EuRoC's sensor.yaml)");
+                  "accelerometer bias random walk [m/s^3/sqrt(Hz)] (default: the model's, adis16448 4e-5)");
   cmd->add_option("--gyro-random-walk", opts->gyro_random_walk,
-                  "gyroscope bias random walk [rad/s^2/sqrt(Hz)] (default 1.9393e-5, EuRoC's sensor.yaml)");
+                  "gyroscope bias random walk [rad/s^2/sqrt(Hz)] (default: the model's, adis16448 2e-6)");
   cmd->add_option("--imu-lead-s", opts->imu_lead_s,
                   "IMU samples before the first frame, vehicle parked [s] (default 1; 0: renders before stop 33)");
   cmd->add_option("--frame-rate", opts->frame_rate, "camera frame rate [Hz]");

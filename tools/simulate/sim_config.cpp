@@ -11,6 +11,29 @@ std::vector<std::string> presetNames() {
   return {"paper-plain", "paper-snow", "short-plain", "short-snow", "short-outage", "revisit"};
 }
 
+namespace {
+std::invalid_argument unknownName(const char* what, const std::string& name, const std::vector<std::string>& valid) {
+  std::ostringstream os;
+  os << "unknown " << what << " '" << name << "' (valid:";
+  for (const auto& v : valid) os << ' ' << v;
+  os << ')';
+  return std::invalid_argument(os.str());
+}
+}  // namespace
+
+std::vector<std::string> imuModelNames() { return {"adis16448", "euroc-kalibr"}; }
+
+imu::ImuNoise imuModel(const std::string& name) {
+  imu::ImuNoise n;  // EuRoC's sensor.yaml (core/imu/imu_noise.hpp): the densities of both models
+  if (name == "adis16448") {
+    n.gyroscope_random_walk = 2e-6;
+    n.accelerometer_random_walk = 4e-5;
+  } else if (name != "euroc-kalibr") {
+    throw unknownName("IMU model", name, imuModelNames());
+  }
+  return n;
+}
+
 SimConfig presetConfig(const std::string& name) {
   SimConfig c;
   c.preset = name;
@@ -41,11 +64,7 @@ SimConfig presetConfig(const std::string& name) {
     c.preset = name;
     c.frames = 10000;
   } else {
-    std::ostringstream os;
-    os << "unknown preset '" << name << "' (valid:";
-    for (const auto& n : presetNames()) os << ' ' << n;
-    os << ')';
-    throw std::invalid_argument(os.str());
+    throw unknownName("preset", name, presetNames());
   }
   c.snow.enabled = name.ends_with("-snow");
   return c;

@@ -139,6 +139,10 @@ TEST(CoastingConsistency, ErrorInsideThreeSigmaAtHalfOneTwoAndFiveSecondsForEver
   for (const uint32_t seed : {41u, 59u}) {
     simulate::SimConfig c = simulate::presetConfig("short-outage");
     c.seed = seed;
+    // The coasting covariance's accelerometer-bias spread (OdometryParams::accel_bias_sigma_m_s2)
+    // covers the stress model's walk; with the presets' steadier ADIS16448 the errors shrink
+    // and the bound is looser (median 3 sigma / error 13.0 against 9.6 here), every error still inside.
+    c.imu = simulate::imuModel("euroc-kalibr");
     c.frames = 260;
     c.frame_rate_hz = 10.0;
     c.rig.width = 320;  // a quarter of the pixels: the covariance does not depend on them
