@@ -483,7 +483,9 @@ void Daemon::refineJob(GlobalStage::Job& job) {
     health_.global_rejected++;
   }
   // The refined pose of that frame: the correction is a delta in W, so it moves the body
-  // pose as it moved the camera's.
+  // pose as it moved the camera's. The local pose is published in the start-up frame
+  // (odometry accel_bias.start_frame), which the chain's W is turned from by the start-up tilt
+  // (a few mrad): the delta applied here errs by that angle times its own size (mm per metre).
   OdometryResult refined = job.request.local;
   refined.T_W_B = c.correction_W * refined.T_W_B;
   refined.v_W = c.correction_W.linear() * refined.v_W;

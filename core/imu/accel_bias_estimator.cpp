@@ -22,7 +22,7 @@ void AccelBiasEstimator::reset(const Eigen::Matrix3d& R_W_B, bool levelled_by_ac
   last_nis_ = 0;
   P_.setZero();
   const double sb2 = params_.initial_bias_sigma_m_s2 * params_.initial_bias_sigma_m_s2;
-  P_.bottomRightCorner<3, 3>() = Eigen::Matrix3d::Identity() * sb2;
+  P_.block<3, 3>(2, 2) = Eigen::Matrix3d::Identity() * sb2;
   if (levelled_by_accelerometer) {
     // Levelling made R^ f = +g z exactly, so g [eps]x z = -R^ b: eps_x = (R^ b)_y / g,
     // eps_y = -(R^ b)_x / g. Without this correlation the first turn could not tell which of
@@ -30,11 +30,17 @@ void AccelBiasEstimator::reset(const Eigen::Matrix3d& R_W_B, bool levelled_by_ac
     Eigen::Matrix<double, 2, 3> M;
     M << 0, 1, 0, -1, 0, 0;
     const Eigen::Matrix<double, 2, 3> J = M * R_W_B / kGravity_m_s2;
-    P_.topLeftCorner<2, 2>() = J * P_.bottomRightCorner<3, 3>() * J.transpose();
-    P_.topRightCorner<2, 3>() = J * P_.bottomRightCorner<3, 3>();
-    P_.bottomLeftCorner<3, 2>() = P_.topRightCorner<2, 3>().transpose();
+    P_.topLeftCorner<2, 2>() = J * P_.block<3, 3>(2, 2) * J.transpose();
+    P_.block<2, 3>(0, 2) = J * P_.block<3, 3>(2, 2);
+    P_.block<3, 2>(2, 0) = P_.block<2, 3>(0, 2).transpose();
   }
   P_.topLeftCorner<2, 2>() += Eigen::Matrix2d::Identity() * tilt_sigma_rad * tilt_sigma_rad;
+  // The start-up tilt is the tilt now: the same state, exactly correlated, until the turns
+  // and the chain's walk tell them apart.
+  initial_tilt_W_.setZero();
+  P_.block<2, 5>(5, 0) = P_.block<2, 5>(0, 0);
+  P_.block<5, 2>(0, 5) = P_.block<5, 2>(0, 0);
+  P_.bottomRightCorner<2, 2>() = P_.topLeftCorner<2, 2>();
 }
 
 void AccelBiasEstimator::startWindow(const Eigen::Vector3d& v_W) {
@@ -50,7 +56,7 @@ void AccelBiasEstimator::addInterval(const Eigen::Matrix3d& R_W_B_start, const E
   if (t1_ns <= t0_ns) return;
   const double dt_s = 1e-9 * static_cast<double>(t1_ns - t0_ns);
   P_.topLeftCorner<2, 2>().diagonal().array() += std::pow(params_.tilt_random_walk_rad_sqrt_s, 2) * dt_s;
-  P_.bottomRightCorner<3, 3>().diagonal().array() += std::pow(params_.bias_random_walk_m_s2_sqrt_s, 2) * dt_s;
+  P_.block<3, 3>(2, 2).diagonal().array() += std::pow(params_.bias_random_walk_m_s2_sqrt_s, 2) * dt_s;
   if (!window_open_) return;
   if (samples.empty()) {
     window_open_ = false;  // nothing measured the interval: the window cannot be closed
@@ -85,9 +91,9 @@ AccelBiasEstimator::Outcome AccelBiasEstimator::close(const Eigen::Vector3d& v_W
   const double T = window_s_;
   const Eigen::Vector3d m = sum_force_W_ / T;
   const Eigen::Vector3d z = (sum_force_W_ + gravityW() * T - (v_W - v_start_W_)) / T;
-  Eigen::Matrix<double, 3, 5> H;
+  Eigen::Matrix<double, 3, kStates> H = Eigen::Matrix<double, 3, kStates>::Zero();
   H.leftCols<2>() = -se3::skew(m).leftCols<2>();
-  H.rightCols<3>() = sum_rotation_ / T;
+  H.middleCols<3>(2) = sum_rotation_ / T;
   // Two velocities (the window's ends), and the accelerometer's white noise averaged over T.
   const double r2 = 2 * std::pow(params_.velocity_sigma_m_s / T, 2) + std::pow(params_.accel_noise_density, 2) / T;
   const Eigen::Matrix3d Rm = Eigen::Matrix3d::Identity() * r2;
@@ -98,12 +104,14 @@ AccelBiasEstimator::Outcome AccelBiasEstimator::close(const Eigen::Vector3d& v_W
     ++refused_;
     return Outcome::kRefused;
   }
-  const Eigen::Matrix<double, 5, 3> K = (S_ldlt.solve(H * P_)).transpose();
-  const Eigen::Matrix<double, 5, 1> dx = K * z;
-  const Matrix5d I_KH = Matrix5d::Identity() - K * H;
+  const Eigen::Matrix<double, kStates, 3> K = (S_ldlt.solve(H * P_)).transpose();
+  const Eigen::Matrix<double, kStates, 1> dx = K * z;
+  const StateMatrix I_KH = StateMatrix::Identity() - K * H;
   P_ = I_KH * P_ * I_KH.transpose() + K * Rm * K.transpose();
   P_ = 0.5 * (P_ + P_.transpose());
-  bias_B_ += dx.tail<3>();
+  bias_B_ += dx.segment<3>(2);
+  // The start-up tilt is a constant, not fed back: only its estimate moves.
+  initial_tilt_W_.head<2>() += dx.tail<2>();
   // Error-state feedback: R_true = exp(-[eps]x) R^, so the chain turns by -eps and the tilt
   // estimate is zero again (its uncertainty stays).
   tilt_correction_W_ = Eigen::Vector3d(-dx(0), -dx(1), 0.0);

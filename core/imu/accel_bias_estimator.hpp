@@ -14,10 +14,14 @@
 ///
 /// where m is the mean specific force in W (~ +g z). A tilt error eps is fixed in W, a bias is
 /// fixed in the body: on a straight leg only their sum is seen, but the lawnmower's 180 deg
-/// turns rotate the body under the bias and separate them. A 5-state Kalman filter (eps_x, eps_y
-/// in W, db in B) with error-state feedback: after each update the caller turns its chain by
-/// `tiltCorrection()` and the estimate's tilt part returns to zero; the bias goes into the
-/// dead reckoning. Heading is not observed by gravity and is left alone.
+/// turns rotate the body under the bias and separate them. A 7-state Kalman filter (eps_x, eps_y
+/// in W, db in B, and the start-up tilt e0 in W) with error-state feedback: after each update
+/// the caller turns its chain by `tiltCorrection()` and the estimate's tilt part returns to
+/// zero; the bias goes into the dead reckoning. e0, the tilt the chain had at start-up, is a
+/// constant starting exactly correlated with eps: on the first leg every update moves both, at
+/// the turns they part, and `initialTilt()` is what the levelling on the biased accelerometer
+/// left (the publisher's start-up frame, OdometryParams::accel_bias_start_frame). Heading is
+/// not observed by gravity and is left alone.
 #include <cstdint>
 #include <span>
 
@@ -73,9 +77,14 @@ class AccelBiasEstimator {
   /// The rotation vector in W [rad] to left-multiply onto the chain's attitude after the last
   /// update (z = 0); zero when none is due.
   const Eigen::Vector3d& tiltCorrection() const { return tilt_correction_W_; }
+  /// The chain's tilt error at start-up (reset) as now estimated, a rotation vector in W
+  /// [rad] (z = 0): R^(0) = exp([e0]x) R(0). Levelling on a biased accelerometer leaves it;
+  /// the corrections undo it in the chain, and a publisher that keeps the start-up frame
+  /// turns its output back by it (OdometryParams::accel_bias_start_frame).
+  const Eigen::Vector3d& initialTilt() const { return initial_tilt_W_; }
   /// Bias estimate in B [m/s^2], to subtract from the accelerometer.
   const Eigen::Vector3d& bias() const { return bias_B_; }
-  Eigen::Vector3d biasSigma() const { return P_.diagonal().tail<3>().cwiseSqrt(); }
+  Eigen::Vector3d biasSigma() const { return P_.diagonal().segment<3>(2).cwiseSqrt(); }
   Eigen::Vector2d tiltSigma() const { return P_.diagonal().head<2>().cwiseSqrt(); }
   /// Normalised innovation squared of the last update or refusal (3 degrees of freedom).
   double lastNis() const { return last_nis_; }
@@ -83,9 +92,12 @@ class AccelBiasEstimator {
   int refused() const { return refused_; }
 
  private:
-  using Matrix5d = Eigen::Matrix<double, 5, 5>;
+  static constexpr int kStates = 7;
+  using StateMatrix = Eigen::Matrix<double, kStates, kStates>;
   AccelBiasParams params_;
-  Matrix5d P_ = Matrix5d::Zero();  ///< (eps_x, eps_y) in W [rad], db in B [m/s^2]
+  /// (eps_x, eps_y) in W [rad], db in B [m/s^2], the start-up tilt (e0_x, e0_y) in W [rad]
+  StateMatrix P_ = StateMatrix::Zero();
+  Eigen::Vector3d initial_tilt_W_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d bias_B_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d tilt_correction_W_ = Eigen::Vector3d::Zero();
   bool window_open_ = false;

@@ -280,9 +280,9 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
 
   if (!initialised_) {
     initialise(frame, imu_buffer_);
-    r.T_W_B = state_.T_W_B;
+    published_p_W_ = published_from_p_W_ = state_.T_W_B.translation();
+    publishState(r);
     r.source = PoseSource::kInit;
-    r.covariance = pose_covariance_;
     const Eigen::Isometry3d T_W_R0 = state_.T_W_B * T_B_R0;
     if (params_.mode == Mode::kGlobal && deferred_) {
       makeGlobalRequest(frame, T_W_R0, r, true);
@@ -811,9 +811,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     }
   }
 
-  r.T_W_B = state_.T_W_B;
-  r.v_W = state_.v_W;
-  r.covariance = pose_covariance_;
+  publishState(r);
   if (params_.mode == Mode::kGlobal && r.source == PoseSource::kVision) {
     if (deferred_) {
       makeGlobalRequest(frame, T_W_R0, r, false);
@@ -931,6 +929,24 @@ void Odometry::refinePatches(const matching::StereoFeatures& ref_features, const
 }
 
 std::size_t Odometry::mapMemoryBytes() const { return refiner_.memoryBytes(); }
+
+void Odometry::publishState(OdometryResult& r) {
+  r.T_W_B = state_.T_W_B;
+  r.v_W = state_.v_W;
+  r.covariance = pose_covariance_;
+  if (!params_.accel_bias_estimation || !params_.accel_bias_start_frame) return;
+  // The chain's increments turned into the start-up frame (accel_bias_start_frame): a change of
+  // the start-up tilt's estimate turns what follows, never what was already published.
+  const Eigen::Matrix3d R_0 = se3::expSO3(accel_bias_.initialTilt());
+  published_p_W_ += R_0 * (state_.T_W_B.translation() - published_from_p_W_);
+  published_from_p_W_ = state_.T_W_B.translation();
+  r.T_W_B.linear() = R_0 * state_.T_W_B.linear();
+  r.T_W_B.translation() = published_p_W_;
+  r.v_W = R_0 * state_.v_W;
+  Matrix6d J = Matrix6d::Zero();
+  J.topLeftCorner<3, 3>() = J.bottomRightCorner<3, 3>() = R_0;
+  r.covariance = J * pose_covariance_ * J.transpose();
+}
 
 void Odometry::turnChain(const Eigen::Matrix3d& R, Eigen::Isometry3d& T_W_R0) {
   Eigen::Isometry3d D = Eigen::Isometry3d::Identity();

@@ -122,7 +122,11 @@ struct OdometryParams {
   double initial_velocity_sigma_m_s = 1.0;   ///< unknown start velocity [m/s]
   double velocity_sigma_m_s = 0.05;          ///< after a visual fix [m/s]
   double attitude_sigma_rad = 0.005;         ///< after a visual fix [rad]
-  double gyro_bias_gain = 0.01;              ///< fraction of the visual gyro-bias residual applied per frame
+  /// Fraction of the visual gyro-bias residual applied per frame (at gyro_bias_gain_interval_s).
+  /// 0.02 since stop 35 (0.01 before): on the full 1 Hz paper-plain survey with the
+  /// accelerometer-bias filter, median over four untuned seeds 1.45 -> 1.36 m; neutral on the
+  /// 10 Hz short surveys (docs/benchmarks.md, stop 35).
+  double gyro_bias_gain = 0.02;
   /// Frame interval at which gyro_bias_gain holds [s]; at other intervals the gain per frame
   /// scales with sqrt(interval / this). A steady-state Kalman gain for a random-walk bias is
   /// sqrt(Q / R), Q (the walk over one frame) grows with the interval and R (the visual
@@ -193,8 +197,20 @@ struct OdometryParams {
   /// chain's tilt (fixed in W). Each update turns the chain's roll/pitch and sets the bias the
   /// dead reckoning subtracts. Replaces gravity_tilt_time_constant_s when on. The random walk
   /// and white noise of the bias come from the IMU's noise model, not from these params.
-  bool accel_bias_estimation = false;
+  /// On by default since stop 35, with accel_bias_start_frame: the full paper-plain survey
+  /// 1.69 -> 1.36 m (median of four untuned seeds, with gyro_bias_gain 0.02), the 10 Hz short
+  /// surveys unchanged; without the start-up frame it cost those (docs/benchmarks.md).
+  bool accel_bias_estimation = true;
   imu::AccelBiasParams accel_bias;
+  /// With accel_bias_estimation: publish in the start-up frame. Levelling on the biased
+  /// accelerometer leaves the chain tilted by the bias's image (b / g, ~3 mrad); the filter
+  /// learns it at the first turns and turns the chain true, and a published path that turned
+  /// with it would bend there by that angle for the rest of the mission (every metre after
+  /// the turn mis-placed by 3 mm against the first leg). The chain stays true for the dead
+  /// reckoning; OdometryResult::T_W_B and v_W are turned back by the start-up tilt as now
+  /// estimated (AccelBiasEstimator::initialTilt), its increments frame by frame, so the
+  /// published path stays in the frame it started in and only the chain's walk is corrected.
+  bool accel_bias_start_frame = true;
   /// Error (1 sigma) of the heading part of the gyro-bias estimate [rad/s]: the chain's pose
   /// covariance gains heading variance from it, correlated over the estimator's time constant
   /// (frame interval / the gain per frame), and turns that into position (chain_covariance.hpp).
@@ -283,6 +299,8 @@ class Odometry {
     int64_t t_ns = 0;
   };
   void initialise(const FrameFeatures& frame, std::span<const ImuSample> imu);
+  /// The state into `r` (T_W_B, v_W, covariance), in the start-up frame with accel_bias_start_frame.
+  void publishState(OdometryResult& r);
   /// Turns the chain by `R` (in W) about the current position: the state, the frame's `T_W_R0`
   /// and the keyframe with it, so the next frame tracked against them carries the correction;
   /// the gravity tilt-rate observer's windows move too (a correction is no gyro-bias rate).
@@ -335,6 +353,8 @@ class Odometry {
   PredictionInnovation prediction_innovation_;
   /// Accelerometer bias and tilt (accel_bias_estimation).
   imu::AccelBiasEstimator accel_bias_;
+  Eigen::Vector3d published_p_W_ = Eigen::Vector3d::Zero();  ///< accel_bias_start_frame: last published position
+  Eigen::Vector3d published_from_p_W_ = Eigen::Vector3d::Zero();  ///< ...and the chain's position it came from
   std::optional<PreviousFrame> previous_;
   /// What the next frame is tracked against (keyframe_tracking): a keyframe, its pose
   /// covariance, and the gyro's rotation from it to the previous frame.

@@ -226,6 +226,7 @@ void visit(V& v, odometry::OdometryParams& p) {
     v.value("velocity_sigma_m_s", p.accel_bias.velocity_sigma_m_s, 1e-6, 100);
     v.value("window_s", p.accel_bias.window_s, 0, 1000);
     v.value("gate_sigmas", p.accel_bias.gate_sigmas, 0.1, 1000);
+    v.flag("start_frame", p.accel_bias_start_frame);
   });
   v.section("coasting_leak", [&] {
     v.flag("enabled", p.coasting_leak_correction);

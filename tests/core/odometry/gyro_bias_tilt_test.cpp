@@ -27,6 +27,8 @@ struct TiltRun {
   double final_pitch_error_rad = 0;   ///< the chain's pitch against the level truth
   double final_pitch_rad = 0;         ///< signed: nose up is positive
   double pitch_bias_rad_s = 0;        ///< the learnt gyro bias about the body's y axis
+  double final_chain_pitch_rad = 0;   ///< the chain's own (Odometry::state), signed
+  double max_published_z_step_m = 0;  ///< largest frame-to-frame z step of the published path
   int vision_frames = 0;
 };
 
@@ -54,6 +56,7 @@ TiltRun fly(const OdometryParams& params, double visual_pitch_rate_rad_s = kVisu
   TiltRun out;
   int64_t imu_t = -1'000'000'000;
   Eigen::Matrix3d R_last = Eigen::Matrix3d::Identity();
+  double z_last = 0;
   for (int f = 0; f < kFrames; ++f) {
     const double t = 0.1 * f;
     const int64_t t_ns = static_cast<int64_t>(std::llround(t * 1e9));
@@ -66,7 +69,10 @@ TiltRun fly(const OdometryParams& params, double visual_pitch_rate_rad_s = kVisu
     const OdometryResult r = odo.track(std::move(ff), imu);
     out.vision_frames += r.source == PoseSource::kVision;
     R_last = r.T_W_B.linear();
+    if (f > 0) out.max_published_z_step_m = std::max(out.max_published_z_step_m, std::abs(r.T_W_B.translation().z() - z_last));
+    z_last = r.T_W_B.translation().z();
   }
+  out.final_chain_pitch_rad = -std::asin(std::clamp(odo.state().T_W_B.linear()(2, 0), -1.0, 1.0));
   // Pitch: the body's x axis out of the horizontal plane.
   out.final_pitch_rad = -std::asin(std::clamp(R_last(2, 0), -1.0, 1.0));
   out.final_pitch_error_rad = std::abs(out.final_pitch_rad);
@@ -78,9 +84,11 @@ TEST(GyroBiasTilt, AVisualPitchRateIsNotLearntIntoTheAttitudeWithGravityAsTheTil
   // GIVEN the earlier update (all three axes from the visual residual) and the new one
   // (heading from vision, tilt rates from gravity over 2 s windows)
   OdometryParams old_params;
+  old_params.accel_bias_estimation = false;  // gravity's tilt rates alone, not the bias filter's tilt
   old_params.gyro_bias_vision_tilt_weight = 1.0;
   old_params.gyro_bias_gravity_window_s = 0.0;
   OdometryParams new_params;
+  new_params.accel_bias_estimation = false;  // gravity's tilt rates alone, not the bias filter's tilt
   new_params.gyro_bias_vision_tilt_weight = 0.0;
   new_params.gyro_bias_gravity_window_s = 2.0;
   // WHEN both fly 25 s over frames whose visual rotation pitches at 2 mrad/s
@@ -110,6 +118,7 @@ TEST(GyroBiasTilt, AGravityTiltCorrectionIsNotReadAsAGyroBiasRate) {
   // GIVEN a level flight whose accelerometer takes on 0.05 m/s^2 along x as it starts, so that
   // gravity says the chain is pitched by 5 mrad, no visual pitch rate and a bias-free gyro
   OdometryParams params;
+  params.accel_bias_estimation = false;  // it replaces gravity_tilt_time_constant_s when on
   params.gyro_bias_vision_tilt_weight = 0.0;
   params.gyro_bias_gravity_window_s = 2.0;
   params.gravity_tilt_time_constant_s = 5.0;
@@ -126,6 +135,39 @@ TEST(GyroBiasTilt, AGravityTiltCorrectionIsNotReadAsAGyroBiasRate) {
   // ...and the gyro's pitch bias stays near its true zero: a rate that made up for the
   // corrections would be of the order of b/g over the time constant, 1 mrad/s
   EXPECT_LT(std::abs(run.pitch_bias_rad_s), 5e-5);
+}
+
+TEST(GyroBiasTilt, WithTheStartUpFrameThePublishedAttitudeKeepsTheFrameTheChainLevelledIn) {
+  // accel_bias_start_frame: the accelerometer-bias filter turns the chain by what it takes for
+  // tilt, and the tilt it takes for the start-up levelling's error moves the published frame
+  // back with it, frame by frame. On a straight leg the two cannot be told apart.
+  // GIVEN the level flight whose accelerometer takes on 0.05 m/s^2 as it starts (the still
+  // start levelled it true), the filter on, with and without the start-up frame
+  OdometryParams chain_params;
+  chain_params.gyro_bias_gravity_window_s = 2.0;
+  chain_params.accel_bias_estimation = true;
+  chain_params.accel_bias_start_frame = false;
+  OdometryParams start_params = chain_params;
+  start_params.accel_bias_start_frame = true;
+  const Eigen::Vector3d accel_bias(0.05, 0.0, 0.0);
+  // WHEN both fly 25 s
+  const TiltRun chain = fly(chain_params, 0.0, accel_bias);
+  const TiltRun start = fly(start_params, 0.0, accel_bias);
+  RecordProperty("chain_pitch_urad", static_cast<int>(1e6 * chain.final_pitch_rad));
+  RecordProperty("start_frame_pitch_urad", static_cast<int>(1e6 * start.final_pitch_rad));
+  RecordProperty("start_frame_chain_pitch_urad", static_cast<int>(1e6 * start.final_chain_pitch_rad));
+  EXPECT_EQ(chain.vision_frames, kFrames - 1);
+  EXPECT_EQ(start.vision_frames, kFrames - 1);
+  // THEN the chain pitches towards the accelerometer's b / g (5 mrad) in both, the same
+  // chain, and without the start-up frame that is what is published...
+  EXPECT_GT(std::abs(chain.final_chain_pitch_rad), 1e-3);
+  EXPECT_NEAR(start.final_chain_pitch_rad, chain.final_chain_pitch_rad, 1e-9);
+  EXPECT_NEAR(chain.final_pitch_rad, chain.final_chain_pitch_rad, 1e-9);
+  // ...while the start-up frame publishes the attitude level, as it started, and its path
+  // without a jump (0.1 m per frame along x; a turn of the published frame about the start
+  // would move z by up to 25 m x the turn)
+  EXPECT_LT(std::abs(start.final_pitch_rad), 0.2 * std::abs(chain.final_chain_pitch_rad));
+  EXPECT_LT(start.max_published_z_step_m, 1e-3);
 }
 
 }  // namespace
