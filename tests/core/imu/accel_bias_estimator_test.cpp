@@ -98,15 +98,22 @@ Flight fly(const Eigen::Vector3d& bias_B, const AccelBiasParams& params, bool es
   return run;
 }
 
-TEST(AccelBiasEstimator, ConstantBiasIsFoundAcrossTheTurnAndTheTiltHeldToGravity) {
-  // GIVEN a constant accelerometer bias of 0.3 m/s^2 horizontally (the simulator's drift over
-  // the 4.5 km survey: 30 mrad of apparent tilt) and a chain levelled by that accelerometer
-  const Eigen::Vector3d bias_B(0.25, -0.17, 0.06);
+// A constant horizontal bias of 0.3 m/s^2 (30 mrad of apparent tilt), and the filter set for it.
+const Eigen::Vector3d kLargeBias(0.25, -0.17, 0.06);
+AccelBiasParams largeBiasParams() {
   AccelBiasParams params;
   params.initial_bias_sigma_m_s2 = 0.3;
   params.bias_random_walk_m_s2_sqrt_s = 1e-4;
   params.tilt_random_walk_rad_sqrt_s = 1e-4;
   params.velocity_sigma_m_s = 0.01;
+  return params;
+}
+
+TEST(AccelBiasEstimator, ConstantBiasIsFoundAcrossTheTurnAndTheTiltHeldToGravity) {
+  // GIVEN a constant accelerometer bias of 0.3 m/s^2 horizontally (the simulator's drift over
+  // the 4.5 km survey: 30 mrad of apparent tilt) and a chain levelled by that accelerometer
+  const Eigen::Vector3d bias_B = kLargeBias;
+  const AccelBiasParams params = largeBiasParams();
   // WHEN the estimator runs over a leg, a 180 deg turn and the leg back
   const Flight with = fly(bias_B, params, true, 7);
   const Flight without = fly(bias_B, params, false, 7);
@@ -127,12 +134,8 @@ TEST(AccelBiasEstimator, ConstantBiasIsFoundAcrossTheTurnAndTheTiltHeldToGravity
 
 TEST(AccelBiasEstimator, TheStartUpTiltIsLearntSoThePublishedFrameStaysTheStartUpFrame) {
   // GIVEN the same chain levelled by a biased accelerometer (30 mrad off) and the estimator
-  const Eigen::Vector3d bias_B(0.25, -0.17, 0.06);
-  AccelBiasParams params;
-  params.initial_bias_sigma_m_s2 = 0.3;
-  params.bias_random_walk_m_s2_sqrt_s = 1e-4;
-  params.tilt_random_walk_rad_sqrt_s = 1e-4;
-  params.velocity_sigma_m_s = 0.01;
+  const Eigen::Vector3d bias_B = kLargeBias;
+  const AccelBiasParams params = largeBiasParams();
   // WHEN it turns the chain true over a leg, a turn and the leg back
   const Flight run = fly(bias_B, params, true, 11);
   // THEN the start-up tilt it learnt is the levelling's error, within 1.5 mrad of 30...
