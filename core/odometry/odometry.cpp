@@ -243,6 +243,7 @@ void Odometry::initialise(const FrameFeatures& frame, std::span<const ImuSample>
   pose_covariance_ = Matrix6d::Identity() * 1e-12;
   accel_bias_.reset(state_.T_W_B.rotation(), imu::attitudeFromAccelerometer(recent, 0.2).has_value(),
                     params_.attitude_sigma_rad);
+  published_p_W_ = published_from_p_W_ = state_.T_W_B.translation();  // the start-up frame's anchor
   imu::GravityBiasObserverParams gravity;
   gravity.window_s = params_.gyro_bias_gravity_window_s;
   gravity.max_turn_rad = params_.gyro_bias_gravity_max_turn_rad;
@@ -280,7 +281,6 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
 
   if (!initialised_) {
     initialise(frame, imu_buffer_);
-    published_p_W_ = published_from_p_W_ = state_.T_W_B.translation();
     publishState(r);
     r.source = PoseSource::kInit;
     const Eigen::Isometry3d T_W_R0 = state_.T_W_B * T_B_R0;

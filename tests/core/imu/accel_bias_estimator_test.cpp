@@ -112,11 +112,10 @@ AccelBiasParams largeBiasParams() {
 TEST(AccelBiasEstimator, ConstantBiasIsFoundAcrossTheTurnAndTheTiltHeldToGravity) {
   // GIVEN a constant accelerometer bias of 0.3 m/s^2 horizontally (the simulator's drift over
   // the 4.5 km survey: 30 mrad of apparent tilt) and a chain levelled by that accelerometer
-  const Eigen::Vector3d bias_B = kLargeBias;
   const AccelBiasParams params = largeBiasParams();
   // WHEN the estimator runs over a leg, a 180 deg turn and the leg back
-  const Flight with = fly(bias_B, params, true, 7);
-  const Flight without = fly(bias_B, params, false, 7);
+  const Flight with = fly(kLargeBias, params, true, 7);
+  const Flight without = fly(kLargeBias, params, false, 7);
   // THEN on the first leg only the vertical bias is known: horizontally, bias and tilt read
   // the same...
   const std::size_t before_turn = static_cast<std::size_t>(Lawnmower::kStill + Lawnmower::kLeg) - 3;
@@ -134,10 +133,9 @@ TEST(AccelBiasEstimator, ConstantBiasIsFoundAcrossTheTurnAndTheTiltHeldToGravity
 
 TEST(AccelBiasEstimator, TheStartUpTiltIsLearntSoThePublishedFrameStaysTheStartUpFrame) {
   // GIVEN the same chain levelled by a biased accelerometer (30 mrad off) and the estimator
-  const Eigen::Vector3d bias_B = kLargeBias;
   const AccelBiasParams params = largeBiasParams();
   // WHEN it turns the chain true over a leg, a turn and the leg back
-  const Flight run = fly(bias_B, params, true, 11);
+  const Flight run = fly(kLargeBias, params, true, 11);
   // THEN the start-up tilt it learnt is the levelling's error, within 1.5 mrad of 30...
   EXPECT_GT(run.start_tilt_rad.norm(), 0.025);
   EXPECT_LT((run.start_tilt_estimate_rad - run.start_tilt_rad).norm(), 1.5e-3)

@@ -72,9 +72,10 @@ TiltRun fly(const OdometryParams& params, double visual_pitch_rate_rad_s = kVisu
     if (f > 0) out.max_published_z_step_m = std::max(out.max_published_z_step_m, std::abs(r.T_W_B.translation().z() - z_last));
     z_last = r.T_W_B.translation().z();
   }
-  out.final_chain_pitch_rad = -std::asin(std::clamp(odo.state().T_W_B.linear()(2, 0), -1.0, 1.0));
   // Pitch: the body's x axis out of the horizontal plane.
-  out.final_pitch_rad = -std::asin(std::clamp(R_last(2, 0), -1.0, 1.0));
+  const auto pitch = [](const Eigen::Matrix3d& R) { return -std::asin(std::clamp(R(2, 0), -1.0, 1.0)); };
+  out.final_chain_pitch_rad = pitch(odo.state().T_W_B.linear());
+  out.final_pitch_rad = pitch(R_last);
   out.final_pitch_error_rad = std::abs(out.final_pitch_rad);
   out.pitch_bias_rad_s = odo.state().gyro_bias_rad_s.y();
   return out;
