@@ -482,13 +482,13 @@ void Daemon::refineJob(GlobalStage::Job& job) {
   } else if (c.icp_ran) {
     health_.global_rejected++;
   }
-  // The refined pose of that frame: the correction is a delta in W, so it moves the body
-  // pose as it moved the camera's. The local pose is published in the start-up frame
-  // (odometry accel_bias.start_frame), which the chain's W is turned from by the start-up tilt
-  // (a few mrad): the delta applied here errs by that angle times its own size (mm per metre).
+  // The refined pose of that frame: the correction is a delta in the chain's W, so it moves
+  // the body pose as it moved the camera's, turned into the frame the local pose was
+  // published in (the start-up frame, odometry accel_bias.start_frame).
   OdometryResult refined = job.request.local;
-  refined.T_W_B = c.correction_W * refined.T_W_B;
-  refined.v_W = c.correction_W.linear() * refined.v_W;
+  const Eigen::Isometry3d correction_published = odometry::publishedCorrection(job.request, c);
+  refined.T_W_B = correction_published * refined.T_W_B;
+  refined.v_W = correction_published.linear() * refined.v_W;
   if (c.revisit_used) {
     refined.covariance *= c.covariance_scale;
     refined.covariance.bottomRightCorner<3, 3>() += Eigen::Matrix3d::Identity() * c.added_position_variance_m2;

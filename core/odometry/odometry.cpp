@@ -154,6 +154,7 @@ void Odometry::makeGlobalRequest(const FrameFeatures& frame, const Eigen::Isomet
   // its buffers.
   q.features.descriptors = frame.stereo.descriptors.clone();
   q.local = r;
+  q.T_published_W = r.T_W_B * state_.T_W_B.inverse();
   q.last_applied_correction = last_applied_correction_;
   if (params_.global_link) {
     params_.global_link->submit(std::move(q));
