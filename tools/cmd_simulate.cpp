@@ -53,12 +53,12 @@ void runSimulate(const SimulateOptions& o, CLI::App& cmd) {
     c.rig.principal_offset1_px *= f;
     c.seafloor.resolution_m = std::min(c.seafloor.resolution_m / f, 0.05);
   }
-  if (cmd.count("--imu-rate")) c.imu.rate_hz = o.imu_rate;
   if (cmd.count("--imu-model")) {
-    const double rate_hz = c.imu.rate_hz;
-    c.imu = simulate::imuModel(o.imu_model);
-    c.imu.rate_hz = rate_hz;
+    imu::ImuNoise model = simulate::imuModel(o.imu_model);
+    model.rate_hz = c.imu.rate_hz;  // the model gives the densities; the rate is the preset's or --imu-rate's
+    c.imu = model;
   }
+  if (cmd.count("--imu-rate")) c.imu.rate_hz = o.imu_rate;
   if (cmd.count("--accel-random-walk")) c.imu.accelerometer_random_walk = o.accel_random_walk;
   if (cmd.count("--gyro-random-walk")) c.imu.gyroscope_random_walk = o.gyro_random_walk;
   if (cmd.count("--imu-lead-s")) c.imu_lead_s = o.imu_lead_s;

@@ -1,6 +1,7 @@
 #include "tools/simulate/imu_simulator.hpp"
 
 #include <cmath>
+#include <random>
 
 namespace seavio::simulate {
 namespace {
@@ -13,6 +14,18 @@ struct SampleSigmas {
         gyro_walk(n.gyroscope_random_walk * std::sqrt(1.0 / n.rate_hz)),
         accel_walk(n.accelerometer_random_walk * std::sqrt(1.0 / n.rate_hz)) {}
   double gyro_white, accel_white, gyro_walk, accel_walk;
+};
+
+/// Three standard normal draws. One distribution per sequence, as the renders were made: it
+/// caches every second draw, so a fresh one per vector would change every seed's noise.
+class Normal3 {
+ public:
+  explicit Normal3(std::mt19937& rng) : rng_(rng) {}
+  Eigen::Vector3d operator()() { return Eigen::Vector3d(n01_(rng_), n01_(rng_), n01_(rng_)); }
+
+ private:
+  std::mt19937& rng_;
+  std::normal_distribution<double> n01_{0.0, 1.0};
 };
 
 }  // namespace
@@ -36,8 +49,7 @@ ImuSample ImuSimulator::idealSample(const BodyState& s, int64_t t_ns) {
 }
 
 ImuSequence ImuSimulator::simulate(const Trajectory& traj, double end_s, std::mt19937& rng, bool noiseless) const {
-  std::normal_distribution<double> n01(0.0, 1.0);
-  auto randn3 = [&] { return Eigen::Vector3d(n01(rng), n01(rng), n01(rng)); };
+  Normal3 randn3(rng);
   const SampleSigmas sig(noise_);
   Eigen::Vector3d bg = Eigen::Vector3d::Zero(), ba = Eigen::Vector3d::Zero();
   if (!noiseless) {
@@ -75,8 +87,7 @@ void ImuSimulator::prependLead(ImuSequence& sequence, const Trajectory& trajecto
   const auto n = static_cast<int64_t>(std::floor(lead_s * noise_.rate_hz + 1e-9));
   if (n <= 0 || sequence.ground_truth.empty()) return;
   std::mt19937 rng(seed);
-  std::normal_distribution<double> n01(0.0, 1.0);
-  auto randn3 = [&] { return Eigen::Vector3d(n01(rng), n01(rng), n01(rng)); };
+  Normal3 randn3(rng);
   const SampleSigmas sig(noise_);
   BodyState parked = trajectory.at(0.0);
   parked.v_W.setZero();
