@@ -60,6 +60,13 @@ class AccelBiasEstimator {
   void startWindow(const Eigen::Vector3d& v_W);
   /// Drops the open window (coasting, a map correction: the velocity chain is interrupted).
   void breakWindow() { window_open_ = false; }
+  /// Turns the open window with the chain when a map correction turns W about the vertical
+  /// (OdometryParams::map_keeps_tilt): what was summed stays comparable with what follows.
+  void turnWindow(const Eigen::Matrix3d& R) {
+    v_start_W_ = R * v_start_W_;
+    sum_force_W_ = R * sum_force_W_;
+    sum_rotation_ = R * sum_rotation_;
+  }
   bool windowOpen() const { return window_open_; }
 
   /// One inter-frame interval [t0_ns, t1_ns]: the IMU is integrated from the chain's attitude

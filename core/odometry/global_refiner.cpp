@@ -87,7 +87,7 @@ GlobalCorrection GlobalRefiner::correct(const matching::StereoFeatures& features
   c.model_points = static_cast<int>(model.points_W.size());
   if (model.points_W.empty()) {
     if (!c.revisit_used) c.rejection = GlobalRejection::kNoRevisit;
-    c.T_W_R0 = T_W_R0;
+    c.T_W_R0 = keptTilt(T_W_R0, T_W_R0_local);
     return c;
   }
   const icp::PointCloudIndex index(model.points_W);
@@ -111,8 +111,20 @@ GlobalCorrection GlobalRefiner::correct(const matching::StereoFeatures& features
       c.rejection = GlobalRejection::kCorrectionTooLarge;
     }
   }
-  c.T_W_R0 = T_W_R0;
+  c.T_W_R0 = keptTilt(T_W_R0, T_W_R0_local);
   return c;
+}
+
+Eigen::Isometry3d GlobalRefiner::keptTilt(const Eigen::Isometry3d& T_W_R0_refined,
+                                          const Eigen::Isometry3d& T_W_R0_local) const {
+  if (!params_.keep_tilt) return T_W_R0_refined;
+  // The correction's rotation reduced to its turn about W's z (the heading the map holds);
+  // the camera stays where the map put it.
+  const Eigen::Matrix3d R = T_W_R0_refined.linear() * T_W_R0_local.linear().transpose();
+  const double yaw = std::atan2(R(1, 0) - R(0, 1), R(0, 0) + R(1, 1));
+  Eigen::Isometry3d out = T_W_R0_refined;
+  out.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * T_W_R0_local.linear();
+  return out;
 }
 
 bool GlobalRefiner::insertKeyframe(uint64_t frame_id, int64_t t_ns, const Eigen::Isometry3d& T_W_R0,

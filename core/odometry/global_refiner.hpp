@@ -35,6 +35,9 @@ struct GlobalRefinerParams {
   double min_revisit_age_s = 30.0;         ///< map frames at least this old trigger ICP [s]
   double max_map_correction_m = 0.03;      ///< largest accepted ICP correction [m]
   double max_map_correction_rad = 0.005;   ///< ... and rotation [rad]
+  /// A correction moves position and heading only; roll/pitch stay the local estimate's
+  /// (OdometryParams::map_keeps_tilt).
+  bool keep_tilt = false;
   double revisit_keyframe_distance_m = 2.0;  ///< re-observation keyframe spacing [m]
   int revisit_max_points = 200;            ///< points kept per re-observation keyframe (8-bit)
   int revisit_min_inliers = 25;            ///< RANSAC inliers against the old frame to trust it
@@ -167,6 +170,8 @@ class GlobalRefiner {
   const GlobalRefinerParams& params() const { return params_; }
 
  private:
+  /// `T_W_R0_refined` with the local estimate's roll/pitch (params_.keep_tilt).
+  Eigen::Isometry3d keptTilt(const Eigen::Isometry3d& T_W_R0_refined, const Eigen::Isometry3d& T_W_R0_local) const;
   /// A keyframe kept for re-observation: its features (descriptors quantised to 8 bits) and
   /// the position variance of its pose when it was stored.
   struct RevisitFrame {

@@ -89,6 +89,7 @@ GlobalRefinerParams globalRefinerParams(const OdometryParams& p) {
   g.min_revisit_age_s = p.min_revisit_age_s;
   g.max_map_correction_m = p.max_map_correction_m;
   g.max_map_correction_rad = p.max_map_correction_rad;
+  g.keep_tilt = p.map_keeps_tilt && p.accel_bias_estimation;
   g.revisit_keyframe_distance_m = p.revisit_keyframe_distance_m;
   g.revisit_max_points = p.revisit_max_points;
   g.revisit_min_inliers = p.revisit_min_inliers;
@@ -178,8 +179,12 @@ void Odometry::applyGlobalCorrection(const GlobalCorrection& c) {
   // The next frame is tracked against the keyframe: it moves with the chain, or that frame
   // would be placed where the keyframe was before the correction and lose it.
   if (keyframe_) keyframe_->T_W_R0 = orthonormalized(delta * keyframe_->T_W_R0);
-  // The velocity was turned mid-window: the accelerometer-bias window starts again.
-  accel_bias_.breakWindow();
+  // The velocity was turned mid-window: the accelerometer-bias window starts again, or turns
+  // with it when the map only moves the heading (map_keeps_tilt).
+  if (params_.map_keeps_tilt)
+    accel_bias_.turnWindow(delta.linear());
+  else
+    accel_bias_.breakWindow();
   if (c.revisit_used) {
     shrinkCovariance(pose_covariance_, c.covariance_scale, c.added_position_variance_m2);
     if (keyframe_) shrinkCovariance(keyframe_->pose_covariance, c.covariance_scale, c.added_position_variance_m2);
@@ -600,6 +605,9 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
                      pred.state.T_W_B.translation() - state_.T_W_B.translation() - state_.v_W * dt_s});
     else
       handover_.reset();
+    // A map that turned the heading turns the velocity with the frame, as a deferred correction
+    // does: the accelerometer-bias window turned with it (map_keeps_tilt).
+    if (params_.map_keeps_tilt && map_delta_W) v = map_delta_W->linear() * v;
     state_.T_W_B = T_W_B;
     state_.v_W = v;
     state_covariance_ = imu::Matrix9d::Zero();
@@ -782,9 +790,12 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     // this interval into the window; a fix that ends a long enough window updates the filter,
     // which turns the chain's roll/pitch (about the current position, keyframe and previous
     // frame with it, as a map correction does) and sets the bias the next prediction uses.
-    // Coasting, or a map correction that moved the frame, interrupts the velocity chain.
-    const bool fix = r.source == PoseSource::kVision && !map_delta_W && !inline_revisit;
+    // Coasting, or a map correction that moved the frame, interrupts the velocity chain;
+    // unless the map only turns the heading (map_keeps_tilt): the window turns with it.
+    const bool map_moved = map_delta_W || inline_revisit;
+    const bool fix = r.source == PoseSource::kVision && (!map_moved || params_.map_keeps_tilt);
     if (!fix) accel_bias_.breakWindow();
+    if (fix && map_delta_W) accel_bias_.turnWindow(map_delta_W->linear());
     accel_bias_.addInterval(R_start_W_B, state_.gyro_bias_rad_s, interval, t_start_ns, frame.t_ns);
     if (fix) {
       if (accel_bias_.close(state_.v_W) == imu::AccelBiasEstimator::Outcome::kUpdated) {

@@ -239,6 +239,7 @@ void visit(V& v, odometry::OdometryParams& p) {
   v.value("min_revisit_age_s", p.min_revisit_age_s, 0, 1e9);
   v.value("max_map_correction_m", p.max_map_correction_m, 0, 1000);
   v.value("max_map_correction_rad", p.max_map_correction_rad, 0, 3.2);
+  v.flag("map_keeps_tilt", p.map_keeps_tilt);
   v.value("revisit_keyframe_distance_m", p.revisit_keyframe_distance_m, 0, 1000);
   v.value("revisit_max_points", p.revisit_max_points, 1, 100000);
   v.value("revisit_min_inliers", p.revisit_min_inliers, 3, 100000);
