@@ -605,9 +605,10 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
                      pred.state.T_W_B.translation() - state_.T_W_B.translation() - state_.v_W * dt_s});
     else
       handover_.reset();
-    // A map that turned the heading turns the velocity with the frame, as a deferred correction
-    // does: the accelerometer-bias window turned with it (map_keeps_tilt).
-    if (params_.map_keeps_tilt && map_delta_W) v = map_delta_W->linear() * v;
+    // A map correction is not motion: it turns the velocity with the frame, as a deferred
+    // correction does (applyGlobalCorrection), whichever parts of the pose it moved
+    // (map_keeps_tilt); with the tilt kept the accelerometer-bias window turned with it.
+    if (map_delta_W) v = map_delta_W->linear() * v;
     state_.T_W_B = T_W_B;
     state_.v_W = v;
     state_covariance_ = imu::Matrix9d::Zero();
