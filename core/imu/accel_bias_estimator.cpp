@@ -17,6 +17,7 @@ AccelBiasEstimator::AccelBiasEstimator(const AccelBiasParams& params) : params_(
 void AccelBiasEstimator::reset(const Eigen::Matrix3d& R_W_B, bool levelled_by_accelerometer, double tilt_sigma_rad) {
   bias_B_.setZero();
   tilt_correction_W_.setZero();
+  gyro_bias_correction_B_.setZero();
   window_open_ = false;
   updates_ = refused_ = 0;
   last_nis_ = 0;
@@ -40,7 +41,9 @@ void AccelBiasEstimator::reset(const Eigen::Matrix3d& R_W_B, bool levelled_by_ac
   initial_tilt_W_.setZero();
   P_.block<2, 5>(5, 0) = P_.block<2, 5>(0, 0);
   P_.block<5, 2>(0, 5) = P_.block<5, 2>(0, 0);
-  P_.bottomRightCorner<2, 2>() = P_.topLeftCorner<2, 2>();
+  P_.block<2, 2>(5, 5) = P_.topLeftCorner<2, 2>();
+  if (params_.gyro_bias_states)
+    P_.block<2, 2>(7, 7) = Eigen::Matrix2d::Identity() * std::pow(params_.initial_gyro_bias_sigma_rad_s, 2);
 }
 
 void AccelBiasEstimator::startWindow(const Eigen::Vector3d& v_W) {
@@ -57,6 +60,15 @@ void AccelBiasEstimator::addInterval(const Eigen::Matrix3d& R_W_B_start, const E
   const double dt_s = 1e-9 * static_cast<double>(t1_ns - t0_ns);
   P_.topLeftCorner<2, 2>().diagonal().array() += std::pow(params_.tilt_random_walk_rad_sqrt_s, 2) * dt_s;
   P_.block<3, 3>(2, 2).diagonal().array() += std::pow(params_.bias_random_walk_m_s2_sqrt_s, 2) * dt_s;
+  if (params_.gyro_bias_states) {
+    // The chain integrates the gyro minus the estimated bias, so a bias error turns it:
+    // eps += (R dt)_xy dbg (R^ = exp([eps]x) R); the attitude at the interval's start will do
+    // for a second's turn.
+    Eigen::Matrix<double, kStates, kStates> F = Eigen::Matrix<double, kStates, kStates>::Identity();
+    F.block<2, 2>(0, 7) = (R_W_B_start * dt_s).topLeftCorner<2, 2>();
+    P_ = F * P_ * F.transpose();
+    P_.block<2, 2>(7, 7).diagonal().array() += std::pow(params_.gyro_bias_random_walk_rad_s_sqrt_s, 2) * dt_s;
+  }
   if (!window_open_) return;
   if (samples.empty()) {
     window_open_ = false;  // nothing measured the interval: the window cannot be closed
@@ -85,6 +97,7 @@ void AccelBiasEstimator::addInterval(const Eigen::Matrix3d& R_W_B_start, const E
 
 AccelBiasEstimator::Outcome AccelBiasEstimator::close(const Eigen::Vector3d& v_W) {
   tilt_correction_W_.setZero();
+  gyro_bias_correction_B_.setZero();
   if (!window_open_) return Outcome::kNoWindow;
   if (window_s_ < params_.window_s - 1e-6) return Outcome::kOpen;  // round-off of summed intervals
   window_open_ = false;
@@ -111,7 +124,8 @@ AccelBiasEstimator::Outcome AccelBiasEstimator::close(const Eigen::Vector3d& v_W
   P_ = 0.5 * (P_ + P_.transpose());
   bias_B_ += dx.segment<3>(2);
   // The start-up tilt is a constant, not fed back: only its estimate moves.
-  initial_tilt_W_.head<2>() += dx.tail<2>();
+  initial_tilt_W_.head<2>() += dx.segment<2>(5);
+  if (params_.gyro_bias_states) gyro_bias_correction_B_ = Eigen::Vector3d(dx(7), dx(8), 0.0);
   // Error-state feedback: R_true = exp(-[eps]x) R^, so the chain turns by -eps and the tilt
   // estimate is zero again (its uncertainty stays).
   tilt_correction_W_ = Eigen::Vector3d(-dx(0), -dx(1), 0.0);

@@ -45,6 +45,16 @@ struct AccelBiasParams {
   /// An update whose innovation is further out than this (Mahalanobis distance) is refused: a
   /// bad visual velocity must not tilt the chain.
   double gate_sigmas = 4.0;
+  /// Also estimate the horizontal gyro bias (body x, y; states 7-8): a gyro bias error turns
+  /// the chain's tilt steadily (eps' = (R dbg)_xy), which a tilt random walk can only follow by
+  /// being large, and a large walk lets the tilt absorb what each turn shows of the
+  /// accelerometer bias (docs/benchmarks.md, stop 38: the first turn left the full survey's
+  /// bias 0.004-0.021 m/s^2 off, the second lane pitched 4 mrad). The caller adds
+  /// gyroBiasCorrection() to its gyro bias after each update; the gravity tilt-rate observer,
+  /// which estimated the same thing apart, is then not run (OdometryParams).
+  bool gyro_bias_states = false;
+  double initial_gyro_bias_sigma_rad_s = 3e-4;       ///< [rad/s], the caller's at reset
+  double gyro_bias_random_walk_rad_s_sqrt_s = 1e-5;  ///< [rad/s/sqrt(s)]
 };
 
 class AccelBiasEstimator {
@@ -84,6 +94,10 @@ class AccelBiasEstimator {
   /// The rotation vector in W [rad] to left-multiply onto the chain's attitude after the last
   /// update (z = 0); zero when none is due.
   const Eigen::Vector3d& tiltCorrection() const { return tilt_correction_W_; }
+  /// With gyro_bias_states: the correction to add to the gyro bias estimate [rad/s] in B
+  /// after the last update (z = 0); zero when none is due.
+  const Eigen::Vector3d& gyroBiasCorrection() const { return gyro_bias_correction_B_; }
+  void setInitialGyroBiasSigma(double sigma_rad_s) { params_.initial_gyro_bias_sigma_rad_s = sigma_rad_s; }
   /// The chain's tilt error at start-up (reset) as now estimated, a rotation vector in W
   /// [rad] (z = 0): R^(0) = exp([e0]x) R(0). Levelling on a biased accelerometer leaves it;
   /// the corrections undo it in the chain, and a publisher that keeps the start-up frame
@@ -99,14 +113,17 @@ class AccelBiasEstimator {
   int refused() const { return refused_; }
 
  private:
-  static constexpr int kStates = 7;
+  static constexpr int kStates = 9;
   using StateMatrix = Eigen::Matrix<double, kStates, kStates>;
   AccelBiasParams params_;
-  /// (eps_x, eps_y) in W [rad], db in B [m/s^2], the start-up tilt (e0_x, e0_y) in W [rad]
+  /// (eps_x, eps_y) in W [rad], db in B [m/s^2], the start-up tilt (e0_x, e0_y) in W [rad],
+  /// the horizontal gyro bias error (dbg_x, dbg_y) in B [rad/s] (zero and fixed without
+  /// gyro_bias_states)
   StateMatrix P_ = StateMatrix::Zero();
   Eigen::Vector3d initial_tilt_W_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d bias_B_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d tilt_correction_W_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d gyro_bias_correction_B_ = Eigen::Vector3d::Zero();
   bool window_open_ = false;
   Eigen::Vector3d v_start_W_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d sum_force_W_ = Eigen::Vector3d::Zero();      ///< sum R^(f - b^) dt [m/s]

@@ -247,6 +247,7 @@ void Odometry::initialise(const FrameFeatures& frame, std::span<const ImuSample>
   state_covariance_.block<3, 3>(3, 3) =
       Eigen::Matrix3d::Identity() * params_.initial_velocity_sigma_m_s * params_.initial_velocity_sigma_m_s;
   pose_covariance_ = Matrix6d::Identity() * 1e-12;
+  accel_bias_.setInitialGyroBiasSigma(gyro_bias_sigma_rad_s_);
   accel_bias_.reset(state_.T_W_B.rotation(), imu::attitudeFromAccelerometer(recent, 0.2).has_value(),
                     params_.attitude_sigma_rad);
   published_p_W_ = published_from_p_W_ = state_.T_W_B.translation();  // the start-up frame's anchor
@@ -760,7 +761,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   }
   last_motion_ = prev.T_W_R0.inverse() * T_W_R0;
   last_dt_s_ = dt_s;
-  if (params_.gyro_bias_gravity_window_s > 0) {
+  if (params_.gyro_bias_gravity_window_s > 0 &&
+      !(params_.accel_bias_estimation && params_.accel_bias.gyro_bias_states)) {
     // Tilt rates of the gyro bias from gravity (core/imu/gravity_bias_observer.hpp): only over
     // contiguous visual frames, and once the still start ended. A map correction of this frame
     // moves the chain: the observer's windows and this interval's start follow it into the
@@ -801,6 +803,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     if (fix) {
       if (accel_bias_.close(state_.v_W) == imu::AccelBiasEstimator::Outcome::kUpdated) {
         turnChain(se3::expSO3(accel_bias_.tiltCorrection()), T_W_R0);
+        state_.gyro_bias_rad_s += accel_bias_.gyroBiasCorrection();
       }
       if (!accel_bias_.windowOpen()) accel_bias_.startWindow(state_.v_W);
     }

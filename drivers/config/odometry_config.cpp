@@ -226,6 +226,8 @@ void visit(V& v, odometry::OdometryParams& p) {
     v.value("velocity_sigma_m_s", p.accel_bias.velocity_sigma_m_s, 1e-6, 100);
     v.value("window_s", p.accel_bias.window_s, 0, 1000);
     v.value("gate_sigmas", p.accel_bias.gate_sigmas, 0.1, 1000);
+    v.flag("gyro_bias_states", p.accel_bias.gyro_bias_states);
+    v.value("gyro_bias_random_walk_rad_s_sqrt_s", p.accel_bias.gyro_bias_random_walk_rad_s_sqrt_s, 0, 1);
     v.flag("start_frame", p.accel_bias_start_frame);
   });
   v.section("coasting_leak", [&] {
