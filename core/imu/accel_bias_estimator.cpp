@@ -11,10 +11,11 @@
 namespace seavio::imu {
 
 AccelBiasEstimator::AccelBiasEstimator(const AccelBiasParams& params) : params_(params) {
-  reset(Eigen::Matrix3d::Identity(), true, 0.0);
+  reset(Eigen::Matrix3d::Identity(), true, 0.0, 0.0);
 }
 
-void AccelBiasEstimator::reset(const Eigen::Matrix3d& R_W_B, bool levelled_by_accelerometer, double tilt_sigma_rad) {
+void AccelBiasEstimator::reset(const Eigen::Matrix3d& R_W_B, bool levelled_by_accelerometer, double tilt_sigma_rad,
+                               double gyro_bias_sigma_rad_s) {
   bias_B_.setZero();
   tilt_correction_W_.setZero();
   gyro_bias_correction_B_.setZero();
@@ -43,7 +44,7 @@ void AccelBiasEstimator::reset(const Eigen::Matrix3d& R_W_B, bool levelled_by_ac
   P_.block<5, 2>(0, 5) = P_.block<5, 2>(0, 0);
   P_.block<2, 2>(5, 5) = P_.topLeftCorner<2, 2>();
   if (params_.gyro_bias_states)
-    P_.block<2, 2>(7, 7) = Eigen::Matrix2d::Identity() * std::pow(params_.initial_gyro_bias_sigma_rad_s, 2);
+    P_.block<2, 2>(7, 7) = Eigen::Matrix2d::Identity() * gyro_bias_sigma_rad_s * gyro_bias_sigma_rad_s;
 }
 
 void AccelBiasEstimator::startWindow(const Eigen::Vector3d& v_W) {
@@ -64,7 +65,7 @@ void AccelBiasEstimator::addInterval(const Eigen::Matrix3d& R_W_B_start, const E
     // The chain integrates the gyro minus the estimated bias, so a bias error turns it:
     // eps += (R dt)_xy dbg (R^ = exp([eps]x) R); the attitude at the interval's start will do
     // for a second's turn.
-    Eigen::Matrix<double, kStates, kStates> F = Eigen::Matrix<double, kStates, kStates>::Identity();
+    StateMatrix F = StateMatrix::Identity();
     F.block<2, 2>(0, 7) = (R_W_B_start * dt_s).topLeftCorner<2, 2>();
     P_ = F * P_ * F.transpose();
     P_.block<2, 2>(7, 7).diagonal().array() += std::pow(params_.gyro_bias_random_walk_rad_s_sqrt_s, 2) * dt_s;

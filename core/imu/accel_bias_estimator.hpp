@@ -35,8 +35,9 @@ struct AccelBiasParams {
   double initial_bias_sigma_m_s2 = 0.03;        ///< bias spread at start-up [m/s^2]
   double bias_random_walk_m_s2_sqrt_s = 3e-3;   ///< bias drift [m/s^2/sqrt(s)] (the IMU's random walk)
   /// Roll/pitch drift of the visual chain [rad/sqrt(s)]: how fast the filter lets the tilt
-  /// error change between updates, against the bias.
-  double tilt_random_walk_rad_sqrt_s = 1e-3;
+  /// error change between updates, against the bias. What is left once the gyro bias is a
+  /// state (1e-3 without: docs/benchmarks.md, stop 38).
+  double tilt_random_walk_rad_sqrt_s = 2e-4;
   /// Error of one visual velocity at a window's ends [m/s] (a frame's relative-position error
   /// over its interval).
   double velocity_sigma_m_s = 0.02;
@@ -52,8 +53,7 @@ struct AccelBiasParams {
   /// bias 0.004-0.021 m/s^2 off, the second lane pitched 4 mrad). The caller adds
   /// gyroBiasCorrection() to its gyro bias after each update; the gravity tilt-rate observer,
   /// which estimated the same thing apart, is then not run (OdometryParams).
-  bool gyro_bias_states = false;
-  double initial_gyro_bias_sigma_rad_s = 3e-4;       ///< [rad/s], the caller's at reset
+  bool gyro_bias_states = true;
   double gyro_bias_random_walk_rad_s_sqrt_s = 1e-5;  ///< [rad/s/sqrt(s)]
 };
 
@@ -63,8 +63,11 @@ class AccelBiasEstimator {
 
   /// Starts over at the first frame with attitude `R_W_B`. Levelled by the accelerometer (the
   /// usual start), the initial tilt error is the bias's image (eps = [b]_xy / g, exactly
-  /// correlated); otherwise the tilt is independent with `tilt_sigma_rad`.
-  void reset(const Eigen::Matrix3d& R_W_B, bool levelled_by_accelerometer, double tilt_sigma_rad);
+  /// correlated); otherwise the tilt is independent with `tilt_sigma_rad`. With
+  /// gyro_bias_states the horizontal gyro-bias error starts at `gyro_bias_sigma_rad_s` (the
+  /// caller's: a still start knows it better than a moving one).
+  void reset(const Eigen::Matrix3d& R_W_B, bool levelled_by_accelerometer, double tilt_sigma_rad,
+             double gyro_bias_sigma_rad_s);
 
   /// Opens a window at a visual fix whose velocity is `v_W` [m/s] (an open one is dropped).
   void startWindow(const Eigen::Vector3d& v_W);
@@ -97,7 +100,6 @@ class AccelBiasEstimator {
   /// With gyro_bias_states: the correction to add to the gyro bias estimate [rad/s] in B
   /// after the last update (z = 0); zero when none is due.
   const Eigen::Vector3d& gyroBiasCorrection() const { return gyro_bias_correction_B_; }
-  void setInitialGyroBiasSigma(double sigma_rad_s) { params_.initial_gyro_bias_sigma_rad_s = sigma_rad_s; }
   /// The chain's tilt error at start-up (reset) as now estimated, a rotation vector in W
   /// [rad] (z = 0): R^(0) = exp([e0]x) R(0). Levelling on a biased accelerometer leaves it;
   /// the corrections undo it in the chain, and a publisher that keeps the start-up frame

@@ -247,9 +247,8 @@ void Odometry::initialise(const FrameFeatures& frame, std::span<const ImuSample>
   state_covariance_.block<3, 3>(3, 3) =
       Eigen::Matrix3d::Identity() * params_.initial_velocity_sigma_m_s * params_.initial_velocity_sigma_m_s;
   pose_covariance_ = Matrix6d::Identity() * 1e-12;
-  accel_bias_.setInitialGyroBiasSigma(gyro_bias_sigma_rad_s_);
   accel_bias_.reset(state_.T_W_B.rotation(), imu::attitudeFromAccelerometer(recent, 0.2).has_value(),
-                    params_.attitude_sigma_rad);
+                    params_.attitude_sigma_rad, gyro_bias_sigma_rad_s_);
   published_p_W_ = published_from_p_W_ = state_.T_W_B.translation();  // the start-up frame's anchor
   imu::GravityBiasObserverParams gravity;
   gravity.window_s = params_.gyro_bias_gravity_window_s;

@@ -156,9 +156,10 @@ struct OdometryParams {
   /// Tilt rates of the gyro bias from gravity (core/imu/gravity_bias_observer.hpp): the change,
   /// from one pair of windows of this length [s] to the next, of the accelerometer's specific
   /// force against vision's acceleration and gravity, in the body frame (a constant
-  /// accelerometer bias cancels). 0 = off. 1 s at 10 Hz: short surveys' tilt drift follows
-  /// twice as closely as with 2 s windows, and 4 s lost on 18 of 20 (docs/benchmarks.md,
-  /// "Tilt-rate windows").
+  /// accelerometer bias cancels). 0 = off; not run with accel_bias_estimation and
+  /// accel_bias.gyro_bias_states, which estimate the same rates in one filter. 1 s at 10 Hz:
+  /// short surveys' tilt drift follows twice as closely as with 2 s windows, and 4 s lost on 18
+  /// of 20 (docs/benchmarks.md, "Tilt-rate windows").
   double gyro_bias_gravity_window_s = 1.0;
   /// ...and at least this many frame intervals: at 1 Hz a window is then 2 s, as before (a
   /// one-frame window raised the 0.1-scale plain surveys' error 0.017 -> 0.029 %).

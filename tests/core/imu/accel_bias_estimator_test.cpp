@@ -72,7 +72,7 @@ Flight fly(const Eigen::Vector3d& bias_B, const AccelBiasParams& params, bool es
   Eigen::Matrix3d E = R0 * path.R(0).transpose();
   const Eigen::Matrix3d E0 = E;
   AccelBiasEstimator est(params);
-  est.reset(R0, true, 1e-3);
+  est.reset(R0, true, 1e-3, 3e-4);  // gyro-bias sigma: ~2.5x the horizontal errors flown below
   std::normal_distribution<double> vel_noise(0.0, 0.01);
   const auto visualVelocity = [&](double t) {
     return Eigen::Vector3d(E * path.v(t) + Eigen::Vector3d(vel_noise(rng), vel_noise(rng), vel_noise(rng)));
@@ -144,12 +144,13 @@ TEST(AccelBiasEstimator, WithGyroBiasStatesAHorizontalGyroBiasErrorIsLearntInste
   // still start left (1.2e-4 rad/s: the chain's tilt turns 7 mrad a minute)
   const Eigen::Vector3d accel_bias(0.02, -0.02, 0.01), gyro_error(1.0e-4, -0.7e-4, 0.0);
   AccelBiasParams walk;  // the tilt's random walk alone follows the turning chain
+  walk.gyro_bias_states = false;
+  walk.tilt_random_walk_rad_sqrt_s = 1e-3;
   walk.bias_random_walk_m_s2_sqrt_s = 4e-5;
   walk.velocity_sigma_m_s = 0.01;
   AccelBiasParams states = walk;
   states.gyro_bias_states = true;
   states.tilt_random_walk_rad_sqrt_s = 2e-4;
-  states.initial_gyro_bias_sigma_rad_s = 3e-4;
   // WHEN the estimator runs over the leg, the turn and the leg back, both ways
   double worst_walk = 0, worst_states = 0, mean_walk = 0, mean_states = 0;
   Eigen::Vector3d bias_walk = Eigen::Vector3d::Zero(), bias_states = Eigen::Vector3d::Zero();
@@ -198,7 +199,7 @@ TEST(AccelBiasEstimator, TheStartUpTiltIsLearntSoThePublishedFrameStaysTheStartU
 TEST(AccelBiasEstimator, AVelocityJumpIsRefusedAndLeavesTheEstimate) {
   // GIVEN a level vehicle at rest, the window open over 1 s of IMU data
   AccelBiasEstimator est;
-  est.reset(Eigen::Matrix3d::Identity(), true, 1e-3);
+  est.reset(Eigen::Matrix3d::Identity(), true, 1e-3, 3e-4);
   std::vector<ImuSample> imu;
   for (int i = 0; i <= 200; ++i) imu.push_back(ImuSample{ns(i / 200.0), Eigen::Vector3d::Zero(), -gravityW()});
   est.startWindow(Eigen::Vector3d::Zero());
@@ -216,7 +217,7 @@ TEST(AccelBiasEstimator, AVelocityJumpIsRefusedAndLeavesTheEstimate) {
 TEST(AccelBiasEstimator, AShortWindowStaysOpenUntilItSpansTheConfiguredTime) {
   // GIVEN a 1 s window fed 0.1 s intervals (10 Hz frames)
   AccelBiasEstimator est;
-  est.reset(Eigen::Matrix3d::Identity(), true, 1e-3);
+  est.reset(Eigen::Matrix3d::Identity(), true, 1e-3, 3e-4);
   std::vector<ImuSample> imu;
   for (int i = 0; i <= 400; ++i) imu.push_back(ImuSample{ns(i / 200.0), Eigen::Vector3d::Zero(), -gravityW()});
   est.startWindow(Eigen::Vector3d::Zero());
