@@ -14,10 +14,11 @@
 ///
 /// where m is the mean specific force in W (~ +g z). A tilt error eps is fixed in W, a bias is
 /// fixed in the body: on a straight leg only their sum is seen, but the lawnmower's 180 deg
-/// turns rotate the body under the bias and separate them. A 7-state Kalman filter (eps_x, eps_y
-/// in W, db in B, and the start-up tilt e0 in W) with error-state feedback: after each update
-/// the caller turns its chain by `tiltCorrection()` and the estimate's tilt part returns to
-/// zero; the bias goes into the dead reckoning. e0, the tilt the chain had at start-up, is a
+/// turns rotate the body under the bias and separate them. A 9-state Kalman filter (eps_x, eps_y
+/// in W, db in B, the start-up tilt e0 in W, and the horizontal gyro-bias error dbg_x, dbg_y
+/// in B that turns eps: AccelBiasParams::gyro_bias_states) with error-state feedback: after
+/// each update the caller turns its chain by `tiltCorrection()` and the estimate's tilt part
+/// returns to zero; the bias goes into the dead reckoning. e0, the tilt the chain had at start-up, is a
 /// constant starting exactly correlated with eps: on the first leg every update moves both, at
 /// the turns they part, and `initialTilt()` is what the levelling on the biased accelerometer
 /// left (the publisher's start-up frame, OdometryParams::accel_bias_start_frame). Heading is
