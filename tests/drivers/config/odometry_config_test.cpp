@@ -71,6 +71,16 @@ TEST(OdometryConfig, FileErrorsThrowWithThePath) {
   EXPECT_NO_THROW(loadOdometryParamsFile(std::string(SEAVIO_SOURCE_DIR) + "/config/seavio.yaml"));
 }
 
+TEST(OdometryConfig, TheShippedFileSaysWhatTheBuiltInDefaultsAre) {
+  // `seavio run` without --config uses the built-ins, the daemon and the docs config/seavio.yaml:
+  // a default changed in one place only would make the two run different filters (stop 39
+  // flipped accel_bias.gyro_bias_states in both).
+  const odometry::OdometryParams shipped =
+      loadOdometryParamsFile(std::string(SEAVIO_SOURCE_DIR) + "/config/seavio.yaml");
+  EXPECT_EQ(describe(shipped), describe(odometry::OdometryParams{}));
+  EXPECT_TRUE(shipped.accel_bias.gyro_bias_states);
+}
+
 /// The message of the InputError thrown by loadOdometryParamsFile for `text`, or "" if none.
 std::string loadError(const std::string& text, const std::string& name) {
   const std::string path = testing::TempDir() + "/" + name;
