@@ -18,11 +18,11 @@
 /// in W, db in B, the start-up tilt e0 in W, and the horizontal gyro-bias error dbg_x, dbg_y
 /// in B that turns eps: AccelBiasParams::gyro_bias_states) with error-state feedback: after
 /// each update the caller turns its chain by `tiltCorrection()` and the estimate's tilt part
-/// returns to zero; the bias goes into the dead reckoning. e0, the tilt the chain had at start-up, is a
-/// constant starting exactly correlated with eps: on the first leg every update moves both, at
-/// the turns they part, and `initialTilt()` is what the levelling on the biased accelerometer
-/// left (the publisher's start-up frame, OdometryParams::accel_bias_start_frame). Heading is
-/// not observed by gravity and is left alone.
+/// returns to zero; the bias goes into the dead reckoning. e0, the tilt the chain had at
+/// start-up, is a constant starting exactly correlated with eps: on the first leg every update
+/// moves both, at the turns they part, and `initialTilt()` is what the levelling on the biased
+/// accelerometer left (the publisher's start-up frame, OdometryParams::accel_bias_start_frame).
+/// Heading is not observed by gravity and is left alone.
 #include <cstdint>
 #include <span>
 

@@ -15,6 +15,8 @@ std::vector<std::string> parse(const std::string& text, odometry::OdometryParams
   return errors;
 }
 
+std::string shippedConfigPath() { return std::string(SEAVIO_SOURCE_DIR) + "/config/seavio.yaml"; }
+
 TEST(OdometryConfig, ReadsValuesOverDefaults) {
   odometry::OdometryParams p;
   const auto errors = parse(
@@ -68,15 +70,14 @@ TEST(OdometryConfig, FileErrorsThrowWithThePath) {
     EXPECT_NE(std::string(e.what()).find(path), std::string::npos);
   }
   // The shipped default configuration is valid.
-  EXPECT_NO_THROW(loadOdometryParamsFile(std::string(SEAVIO_SOURCE_DIR) + "/config/seavio.yaml"));
+  EXPECT_NO_THROW(loadOdometryParamsFile(shippedConfigPath()));
 }
 
 TEST(OdometryConfig, TheShippedFileSaysWhatTheBuiltInDefaultsAre) {
   // `seavio run` without --config uses the built-ins, the daemon and the docs config/seavio.yaml:
   // a default changed in one place only would make the two run different filters (stop 39
   // flipped accel_bias.gyro_bias_states in both).
-  const odometry::OdometryParams shipped =
-      loadOdometryParamsFile(std::string(SEAVIO_SOURCE_DIR) + "/config/seavio.yaml");
+  const odometry::OdometryParams shipped = loadOdometryParamsFile(shippedConfigPath());
   EXPECT_EQ(describe(shipped), describe(odometry::OdometryParams{}));
   EXPECT_TRUE(shipped.accel_bias.gyro_bias_states);
 }
