@@ -737,9 +737,10 @@ ScalingResult runScalingBench(const ScalingBenchOptions& o) {
     odometry::OdometryParams p = paramsFor(o.config, "global");
     const int base_target = std::max(p.features.controller.target_count, 1);
     p.features.controller.target_count = target;
-    // The sweep is over the feature count itself: the stereo-match target would lift the small
-    // targets to the same count.
+    // The sweep is over the feature count itself: the stereo-match and inlier targets would
+    // lift the small targets to the same count.
     p.features.controller.target_stereo_matches = 0;
+    p.features.controller.target_inliers = 0;
     // Keep a configured cap proportional to the target so it does not clip the sweep.
     if (p.features.max_features > 0)
       p.features.max_features = std::max(1, static_cast<int>(std::lround(static_cast<double>(p.features.max_features) *

@@ -20,7 +20,8 @@ std::vector<std::string> validate(const FeatureCountControllerParams& p) {
     errors.push_back("controller.initial_threshold must lie in [min_threshold, max_threshold]");
   }
   if (p.target_stereo_matches < 0) errors.push_back("controller.target_stereo_matches must be >= 0");
-  if (p.target_stereo_matches > 0 && p.max_count < p.target_count) {
+  if (p.target_inliers < 0) errors.push_back("controller.target_inliers must be >= 0");
+  if ((p.target_stereo_matches > 0 || p.target_inliers > 0) && p.max_count < p.target_count) {
     errors.push_back("controller.max_count must be >= target_count");
   }
   if (!(p.max_step_factor > 1.0) || !std::isfinite(p.max_step_factor)) {
@@ -58,12 +59,23 @@ void FeatureCountController::step(double log_error) {
 void FeatureCountController::update(int observed_count) { step(logRatio(observed_count, params_.target_count)); }
 
 void FeatureCountController::update(int observed_count, int stereo_matches) {
-  if (params_.target_stereo_matches <= 0) return update(observed_count);
-  // Raising the threshold needs both counts above target; more features than max_count
+  update(observed_count, stereo_matches, -1);
+}
+
+void FeatureCountController::update(int observed_count, int stereo_matches, int inliers) {
+  // Raising the threshold needs every count above its target; more features than max_count
   // raise it regardless.
-  const double short_of_either = std::min(logRatio(observed_count, params_.target_count),
-                                          logRatio(stereo_matches, params_.target_stereo_matches));
-  step(std::max(short_of_either, logRatio(observed_count, params_.max_count)));
+  double short_of_any = logRatio(observed_count, params_.target_count);
+  bool chasing = false;
+  if (params_.target_stereo_matches > 0) {
+    short_of_any = std::min(short_of_any, logRatio(stereo_matches, params_.target_stereo_matches));
+    chasing = true;
+  }
+  if (params_.target_inliers > 0 && inliers >= 0) {
+    short_of_any = std::min(short_of_any, logRatio(inliers, params_.target_inliers));
+    chasing = true;
+  }
+  step(chasing ? std::max(short_of_any, logRatio(observed_count, params_.max_count)) : short_of_any);
 }
 
 }  // namespace seavio::features

@@ -16,7 +16,16 @@ struct FeatureCountControllerParams {
   /// short of this, up to `max_count` features. Clear water, which reaches it with
   /// `target_count` features, settles at `target_count` as without it.
   int target_stereo_matches = 300;
-  int max_count = 1500;            ///< most features per image when chasing stereo matches
+  /// RANSAC inliers wanted per tracked frame; 0 = off. The motion's precision grows with the
+  /// inliers, and the share of the features that become inliers is the image overlap with the
+  /// reference: at 1 Hz over a survey only a strip overlaps, and 500 features leave half the
+  /// inliers of 10 Hz (~135 against ~270; the heading noise per frame grows as 1 / sqrt of
+  /// them). When set, the threshold is lowered past `target_count` features while the frame's
+  /// inliers are short of this, up to `max_count` features. Off by default: on the full 1 Hz
+  /// survey 450 (with max_count 3000) halved the horizontal error but doubled the vertical on
+  /// half the seeds (docs/benchmarks.md, stop 40).
+  int target_inliers = 0;
+  int max_count = 1500;            ///< most features per image when chasing matches or inliers
   /// Proportional gain in log space: log t += gain * log(observed / target). The count of a
   /// detector falls roughly as threshold^-alpha (alpha ~ 1 for SURF's det(H) on natural
   /// texture), so gain ~ 1 / alpha settles in one step; below that it is slower but safer.
@@ -50,6 +59,9 @@ class FeatureCountController {
   /// settles where the features reach target_count or the matches target_stereo_matches,
   /// whichever needs more features, and never past max_count features.
   void update(int observed_count, int stereo_matches);
+  /// Same, with the RANSAC inliers of the frame just tracked (target_inliers); `inliers` < 0
+  /// (the first frame, or one the caller does not want read), only the counts above steer.
+  void update(int observed_count, int stereo_matches, int inliers);
 
   /// Back to the initial threshold.
   void reset() { threshold_ = params_.initial_threshold; }

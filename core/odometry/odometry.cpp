@@ -274,9 +274,6 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   r.quality.features_right = static_cast<int>(frame.right.keypoints.size());
   r.quality.stereo_matches = static_cast<int>(frame.stereo.points.size());
   r.quality.detector_threshold = frame.detector_threshold;
-  // Paper III-B: a proportional controller holds the feature count (and, in snow, the stereo
-  // matches).
-  controller_.update(static_cast<int>(frame.left.keypoints.size()), r.quality.stereo_matches);
 
   // Keep IMU samples across calls so integration can interpolate at the frame boundaries.
   for (const ImuSample& s : imu)
@@ -289,6 +286,9 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     initialise(frame, imu_buffer_);
     publishState(r);
     r.source = PoseSource::kInit;
+    // Paper III-B: a proportional controller holds the feature count (and, in snow, the stereo
+    // matches) for the next frame; nothing tracked yet, so no inliers.
+    controller_.update(r.quality.features_left, r.quality.stereo_matches, -1);
     const Eigen::Isometry3d T_W_R0 = state_.T_W_B * T_B_R0;
     if (params_.mode == Mode::kGlobal && deferred_) {
       makeGlobalRequest(frame, T_W_R0, r, true);
@@ -410,6 +410,11 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
                 static_cast<int>(ransac.inliers.size()) >= params_.min_inliers && finitePose(ransac.T_prev_curr);
   }
   r.quality.temporal_matches = static_cast<int>(temporal.size());
+  // The feature controller's inlier target reads frames tracked against the previous frame
+  // only: their overlap is the one the frame rate gives. Against an ageing keyframe (10 Hz) the
+  // inliers fall by design until a new keyframe is made; chasing them would add features on
+  // every frame for the overlap the keyframe policy gives up anyway.
+  const bool reference_is_previous = !on_keyframe || keyframe_->t_ns == prev.t_ns;
   bool rescued = false;  // `ransac` came from the rescue RANSAC (its threshold)
   const auto rescue = [&] {
     if (static_cast<int>(quads.size()) < params_.rescue_min_inliers) return false;
@@ -879,6 +884,10 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   previous_->T_W_R0 = T_W_R0;
   previous_->t_ns = r.t_ns;
   r.times.total_ms = r.times.rectify_ms + r.times.features_ms + r.times.stereo_ms + timer.total_ms();
+  // Paper III-B's controller for the next frame, also holding the inliers against the previous
+  // frame (target_inliers: the overlap decides how many features become inliers).
+  controller_.update(r.quality.features_left, r.quality.stereo_matches,
+                     reference_is_previous ? r.quality.ransac_inliers : -1);
   return r;
 }
 

@@ -164,6 +164,7 @@ void visitFeatures(V& v, features::FeatureParams& p) {
   v.section("controller", [&] {
     v.value("target_count", p.controller.target_count, 1, 1000000);
     v.value("target_stereo_matches", p.controller.target_stereo_matches, 0, 1000000);
+    v.value("target_inliers", p.controller.target_inliers, 0, 1000000);
     v.value("max_count", p.controller.max_count, 1, 1000000);
     v.value("gain", p.controller.gain, 0, 10);
     v.value("min_threshold", p.controller.min_threshold, 0, 1e9);

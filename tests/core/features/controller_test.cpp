@@ -89,6 +89,47 @@ TEST(FeatureCountController, ChasesStereoMatchesPastTheFeatureTargetUpToTheCap) 
   }
 }
 
+TEST(FeatureCountController, ChasesInliersWhereTheOverlapIsAStrip) {
+  // GIVEN the same detector and frames where a fraction of the features become RANSAC inliers:
+  // 10 Hz (most of the image overlaps the reference), a 1 Hz survey (a strip), a frame that
+  // barely overlaps
+  FeatureCountControllerParams p;
+  p.target_stereo_matches = 300;
+  p.target_inliers = 450;
+  p.max_count = 3000;
+  const double scale = 500.0 * 1000.0;
+  struct Case {
+    double inlier_fraction;
+    int settled_features;  // max(target_count, target_inliers / fraction) capped at max_count
+  };
+  for (const Case& c : {Case{0.95, 500}, Case{0.25, 1800}, Case{0.05, 3000}}) {
+    FeatureCountController controller(p);
+    int n = 0;
+    // WHEN the loop runs with the inliers of each frame fed back (stereo matches plentiful)
+    for (int k = 0; k < 40; ++k) {
+      n = modelCount(controller.threshold(), 1.0, scale);
+      controller.update(n, n, static_cast<int>(std::lround(c.inlier_fraction * n)));
+    }
+    // THEN it settles on whichever target needs more features, never past the cap
+    EXPECT_NEAR(n, c.settled_features, 0.02 * c.settled_features) << "fraction " << c.inlier_fraction;
+  }
+  // AND an untracked frame (inliers < 0) or no inlier target steers by the counts alone
+  FeatureCountControllerParams off = p;
+  off.target_inliers = 0;
+  FeatureCountController a(p), b(p), c(off), d(off);
+  for (int n : {0, 120, 900, 480, 5000}) {
+    a.update(n, n / 2);
+    b.update(n, n / 2, -1);
+    c.update(n, n / 2);
+    d.update(n, n / 2, 0);
+    EXPECT_DOUBLE_EQ(a.threshold(), b.threshold());
+    EXPECT_DOUBLE_EQ(c.threshold(), d.threshold());
+  }
+  // AND a negative target is refused
+  off.target_inliers = -1;
+  EXPECT_FALSE(validate(off).empty());
+}
+
 TEST(FeatureCountController, RejectsBadParameters) {
   FeatureCountControllerParams p;
   p.target_count = 0;

@@ -314,6 +314,41 @@ TEST(LocalOdometry, GuidedTracksGiveSnowItsLostPointsBackAtOneHertz) {
   EXPECT_LT(e1, 0.85 * e0) << "without " << e0 << " rad, with " << e1 << " rad";
 }
 
+TEST(LocalOdometry, TheInlierTargetBuysTheOneHertzStripMoreInliersAndASharperHeading) {
+  // GIVEN the 1 Hz survey on a plain floor (an untuned seed), where only a strip of each image
+  // overlaps the previous one, and vision's rotation alone (as above)
+  simulate::SimConfig c = shortSurvey(139, false);
+  c.frames = 40;
+  c.frame_rate_hz = 1.0;
+  c.trajectory.speed_m_s = 1.5;
+  const drivers::Dataset& ds = sequence("1hz_plain_139", c);
+  odometry::OdometryParams params;
+  params.use_rotation_prior = false;
+  params.gyro_bias_gain = 0;
+  params.gyro_bias_gravity_window_s = 0;
+  // WHEN the controller holds the feature count only (the default), then also 450 inliers
+  // (up to 3000 features; docs/features.md "Inlier target")
+  params.features.controller.max_count = 3000;
+  const auto run = [&](int target_inliers) {
+    params.features.controller.target_inliers = target_inliers;
+    return visionSteps(ds, params);
+  };
+  const VisionSteps count_only = run(0), held = run(450);
+  ASSERT_GT(count_only.inliers.size(), 25u);
+  ASSERT_GT(held.inliers.size(), 25u);
+  const double n0 = testing_support::median(count_only.inliers), n1 = testing_support::median(held.inliers);
+  const double e0 = testing_support::median(count_only.heading_err), e1 = testing_support::median(held.heading_err);
+  RecordProperty("median_inliers_count_only", static_cast<int>(n0));
+  RecordProperty("median_inliers_held", static_cast<int>(n1));
+  RecordProperty("median_heading_err_urad_count_only", static_cast<int>(std::lround(1e6 * e0)));
+  RecordProperty("median_heading_err_urad_held", static_cast<int>(std::lround(1e6 * e1)));
+  std::printf("[ inliers  ] count only %.0f inliers, %.0f urad; held %.0f inliers, %.0f urad\n", n0, 1e6 * e0, n1,
+              1e6 * e1);
+  // THEN the frames keep more inliers and vision's heading steps are sharper (medians)
+  EXPECT_GT(n1, 1.5 * n0);
+  EXPECT_LT(e1, 0.85 * e0) << "count only " << e0 << " rad, held " << e1 << " rad";
+}
+
 TEST(LocalOdometry, GyroPriorBeatsVisionOnlyRotation) {
   // The flat floor makes pitch and surge nearly indistinguishable; the IMU rotation prior is
   // what keeps the translation honest (paper: the IMU aids the visual estimate). Measured on
