@@ -276,18 +276,29 @@ TEST(LocalOdometry, ReselectedInliersSharpenVisionsOwnHeadingAtOneHertz) {
   EXPECT_EQ(gated.inliers, inl_first);
 }
 
-TEST(LocalOdometry, GuidedTracksGiveSnowItsLostPointsBackAtOneHertz) {
-  // GIVEN the 1 Hz survey in marine snow, where half the floor points that were matched across
-  // the rig find no descriptor match in the next frame, and vision's rotation alone (as above)
-  simulate::SimConfig c = shortSurvey(137, true);
-  c.frames = 50;
+/// The 1 Hz survey at 1.5 m per frame: only a strip of each image overlaps the previous one.
+const drivers::Dataset& oneHertzSurvey(const std::string& name, uint32_t seed, bool snow, int frames) {
+  simulate::SimConfig c = shortSurvey(seed, snow);
+  c.frames = frames;
   c.frame_rate_hz = 1.0;
   c.trajectory.speed_m_s = 1.5;
-  const drivers::Dataset& ds = sequence("1hz_snow", c);
+  return sequence(name, c);
+}
+
+/// Vision's own rotation: no gyro prior, no gyro-bias learning.
+odometry::OdometryParams visionRotationOnly() {
   odometry::OdometryParams params;
   params.use_rotation_prior = false;
   params.gyro_bias_gain = 0;
   params.gyro_bias_gravity_window_s = 0;
+  return params;
+}
+
+TEST(LocalOdometry, GuidedTracksGiveSnowItsLostPointsBackAtOneHertz) {
+  // GIVEN the 1 Hz survey in marine snow, where half the floor points that were matched across
+  // the rig find no descriptor match in the next frame, and vision's rotation alone (as above)
+  const drivers::Dataset& ds = oneHertzSurvey("1hz_snow", 137, true, 50);
+  odometry::OdometryParams params = visionRotationOnly();
   ASSERT_TRUE(params.guided_tracks.enabled);  // the default this test stands behind
   // WHEN the points descriptor matching missed are looked for where the motion puts them
   const auto run = [&](bool guided) {
@@ -317,15 +328,8 @@ TEST(LocalOdometry, GuidedTracksGiveSnowItsLostPointsBackAtOneHertz) {
 TEST(LocalOdometry, TheInlierTargetBuysTheOneHertzStripMoreInliersAndASharperHeading) {
   // GIVEN the 1 Hz survey on a plain floor (an untuned seed), where only a strip of each image
   // overlaps the previous one, and vision's rotation alone (as above)
-  simulate::SimConfig c = shortSurvey(139, false);
-  c.frames = 40;
-  c.frame_rate_hz = 1.0;
-  c.trajectory.speed_m_s = 1.5;
-  const drivers::Dataset& ds = sequence("1hz_plain_139", c);
-  odometry::OdometryParams params;
-  params.use_rotation_prior = false;
-  params.gyro_bias_gain = 0;
-  params.gyro_bias_gravity_window_s = 0;
+  const drivers::Dataset& ds = oneHertzSurvey("1hz_plain_139", 139, false, 40);
+  odometry::OdometryParams params = visionRotationOnly();
   // WHEN the controller holds the feature count only (the default), then also 450 inliers
   // (up to 3000 features; docs/features.md "Inlier target")
   params.features.controller.max_count = 3000;
