@@ -21,11 +21,13 @@ struct FeatureCountControllerParams {
   /// reference: at 1 Hz over a survey only a strip overlaps, and 500 features leave half the
   /// inliers of 10 Hz (~135 against ~270; the heading noise per frame grows as 1 / sqrt of
   /// them). When set, the threshold is lowered past `target_count` features while the frame's
-  /// inliers are short of this, up to `max_count` features. Off by default: on the full 1 Hz
-  /// survey 450 (with max_count 3000) halved the horizontal error but doubled the vertical on
-  /// half the seeds (docs/benchmarks.md, stop 40).
-  int target_inliers = 0;
-  int max_count = 1500;            ///< most features per image when chasing matches or inliers
+  /// inliers are short of this, up to `max_count` features. 10 Hz reaches 450 with
+  /// `target_count` features and is unchanged; on the full 1 Hz survey it halved the
+  /// horizontal error (stop 40), and with the tilt part of the rotation prior from the
+  /// accelerometer-bias filter (OdometryParams::gyro_bias_prior_tilt_from_filter) without
+  /// the vertical it cost alone (docs/benchmarks.md, stop 41). At 1 Hz ~2x the CPU per frame.
+  int target_inliers = 450;
+  int max_count = 3000;            ///< most features per image when chasing matches or inliers
   /// Proportional gain in log space: log t += gain * log(observed / target). The count of a
   /// detector falls roughly as threshold^-alpha (alpha ~ 1 for SURF's det(H) on natural
   /// texture), so gain ~ 1 / alpha settles in one step; below that it is slower but safer.

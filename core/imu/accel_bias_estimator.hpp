@@ -110,6 +110,9 @@ class AccelBiasEstimator {
   const Eigen::Vector3d& bias() const { return bias_B_; }
   Eigen::Vector3d biasSigma() const { return P_.diagonal().segment<3>(2).cwiseSqrt(); }
   Eigen::Vector2d tiltSigma() const { return P_.diagonal().head<2>().cwiseSqrt(); }
+  /// With gyro_bias_states: the covariance of the horizontal gyro-bias error (body x, y)
+  /// [(rad/s)^2]; zero without.
+  Eigen::Matrix2d gyroBiasCovariance() const { return P_.block<2, 2>(7, 7); }
   /// Normalised innovation squared of the last update or refusal (3 degrees of freedom).
   double lastNis() const { return last_nis_; }
   int updates() const { return updates_; }

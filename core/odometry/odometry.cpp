@@ -491,7 +491,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     // covariance passes through the short propagation unchanged (F ~ I) and is removed.
     // Since a keyframe, the gyro's white noise adds up per interval, its bias error with time.
     prior.covariance = ref_gyro_cov + pred_cov.topLeftCorner<3, 3>() - start_cov.topLeftCorner<3, 3>() +
-                       Eigen::Matrix3d::Identity() * std::pow(gyro_bias_sigma_rad_s_ * dt_ref_s, 2);
+                       gyroBiasRotationCovariance(T_B_R0.rotation(), dt_ref_s);
     const MotionRefinementResult refined =
         refineMotion(rig, quads, ransac.inliers, T_prev_curr, prior, params_.refinement, work_.refinement);
     if (refined.ok) {
@@ -981,6 +981,20 @@ void Odometry::turnChain(const Eigen::Matrix3d& R, Eigen::Isometry3d& T_W_R0) {
   T_W_R0 = orthonormalized(D * T_W_R0);
   if (keyframe_) keyframe_->T_W_R0 = orthonormalized(D * keyframe_->T_W_R0);
   gravity_bias_.moveChain(D);
+}
+
+Eigen::Matrix3d Odometry::gyroBiasRotationCovariance(const Eigen::Matrix3d& R_B_R0, double dt_s) const {
+  if (!params_.gyro_bias_prior_tilt_from_filter || !params_.accel_bias_estimation ||
+      !params_.accel_bias.gyro_bias_states)
+    return Eigen::Matrix3d::Identity() * std::pow(gyro_bias_sigma_rad_s_ * dt_s, 2);  // the same in every frame
+  // The tilt rates are the accelerometer-bias filter's states (vision learns the heading only,
+  // gyro_bias_vision_tilt_weight 0). Gravity pins them within a leg (5e-5 rad/s), well below the
+  // floor the heading keeps; the floor on them let a 1 Hz step's prior-free pitch, which trades
+  // with surge over a flat floor (paper III-C) and has a mean of ~3e-4 rad per step, into
+  // the attitude (docs/benchmarks.md, stop 41).
+  Eigen::Matrix3d cov_B = Eigen::Matrix3d::Identity() * gyro_bias_sigma_rad_s_ * gyro_bias_sigma_rad_s_;
+  cov_B.topLeftCorner<2, 2>() = accel_bias_.gyroBiasCovariance();
+  return R_B_R0.transpose() * cov_B * R_B_R0 * (dt_s * dt_s);
 }
 
 }  // namespace seavio::odometry

@@ -153,6 +153,13 @@ struct OdometryParams {
   /// short-plain seed 23). 1 = learn all of it; 0 = vision learns the heading rate only and the
   /// tilt rates come from gravity (gyro_bias_gravity_window_s) or stay at the still start's.
   double gyro_bias_vision_tilt_weight = 0.0;
+  /// The rotation prior's gyro-bias term per axis: the tilt rates (body x, y) with the
+  /// covariance the accelerometer-bias filter holds for them (accel_bias.gyro_bias_states),
+  /// which shrinks as the turns make them observable, the heading with gyro_bias_sigma's. Off:
+  /// gyro_bias_sigma on all three axes, whatever the filter knows. On since stop 41: with the
+  /// feature controller's inlier target, the 1 Hz vertical error it had doubled came back
+  /// (docs/benchmarks.md); a tighter floor on all axes instead (6e-5) lost the 10 Hz tilt.
+  bool gyro_bias_prior_tilt_from_filter = true;
   /// Tilt rates of the gyro bias from gravity (core/imu/gravity_bias_observer.hpp): the change,
   /// from one pair of windows of this length [s] to the next, of the accelerometer's specific
   /// force against vision's acceleration and gravity, in the body frame (a constant
@@ -325,6 +332,10 @@ class Odometry {
   /// Deferred mode: the request for the frame just tracked.
   void makeGlobalRequest(const FrameFeatures& frame, const Eigen::Isometry3d& T_W_R0, const OdometryResult& r,
                          bool first_frame);
+  /// The covariance [rad^2] of the rotation a gyro-bias error turns over `dt_s`, in the rig
+  /// frame R0, for the rotation prior (gyro_bias_prior_tilt_from_filter); `R_B_R0` turns rig
+  /// vectors into the body.
+  Eigen::Matrix3d gyroBiasRotationCovariance(const Eigen::Matrix3d& R_B_R0, double dt_s) const;
 
   Frontend frontend_;
   imu::ImuNoise imu_noise_;

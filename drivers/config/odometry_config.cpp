@@ -214,6 +214,7 @@ void visit(V& v, odometry::OdometryParams& p) {
   v.value("gyro_bias_sigma_at_rest_rad_s", p.gyro_bias_sigma_at_rest_rad_s, 0, 1);
   v.value("gyro_bias_sigma_unknown_rad_s", p.gyro_bias_sigma_unknown_rad_s, 0, 1);
   v.value("gyro_bias_vision_tilt_weight", p.gyro_bias_vision_tilt_weight, 0, 1);
+  v.flag("gyro_bias_prior_tilt_from_filter", p.gyro_bias_prior_tilt_from_filter);
   v.value("gyro_bias_gravity_window_s", p.gyro_bias_gravity_window_s, 0, 1e4);
   v.value("gyro_bias_gravity_window_min_frames", p.gyro_bias_gravity_window_min_frames, 1, 1000);
   v.value("gyro_bias_gravity_gain", p.gyro_bias_gravity_gain, 0, 1);

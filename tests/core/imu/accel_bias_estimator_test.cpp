@@ -44,6 +44,7 @@ struct Flight {
   std::vector<Eigen::Vector3d> bias_error;  // per frame, after its update
   std::vector<double> tilt_error_rad;       // the chain's roll/pitch error per frame
   std::vector<Eigen::Vector3d> gyro_bias_error;  // the chain's gyro bias error per frame [rad/s]
+  std::vector<Eigen::Vector2d> gyro_bias_sigma;  // gyroBiasCovariance()'s sigmas per frame [rad/s]
   /// Roll/pitch of the chain turned back by the start-up tilt estimate (the published
   /// attitude with OdometryParams::accel_bias_start_frame) against the start-up error, per frame
   std::vector<double> start_frame_error_rad;
@@ -100,6 +101,7 @@ Flight fly(const Eigen::Vector3d& bias_B, const AccelBiasParams& params, bool es
     const Eigen::Vector3d published = se3::logSO3(se3::expSO3(est.initialTilt()) * E * E0.transpose());
     run.start_frame_error_rad.push_back(std::hypot(published.x(), published.y()));
     run.gyro_bias_error.push_back(gyro_bias_error_B);
+    run.gyro_bias_sigma.push_back(est.gyroBiasCovariance().diagonal().cwiseSqrt());
   }
   run.start_tilt_rad = se3::logSO3(E0).head<2>();
   run.start_tilt_estimate_rad = est.initialTilt().head<2>();
@@ -177,6 +179,42 @@ TEST(AccelBiasEstimator, WithGyroBiasStatesAHorizontalGyroBiasErrorIsLearntInste
   // AND the chain's tilt and the accelerometer bias come out better than with the walk alone
   EXPECT_LT(mean_states, 0.85 * mean_walk);  // measured 0.75
   EXPECT_LT(bias_states.head<2>().norm(), 0.5 * bias_walk.head<2>().norm());  // measured 0.25
+}
+
+TEST(AccelBiasEstimator, TheGyroBiasSigmaShrinksAsGravityShowsTheTiltRateAndCoversTheErrorLeft) {
+  // GIVEN the paper IMU's accelerometer bias and a horizontal gyro bias error the still start
+  // left, the filter with gyro-bias states started at 3e-4 rad/s (the odometry's rotation
+  // prior reads this covariance: OdometryParams::gyro_bias_prior_tilt_from_filter)
+  const Eigen::Vector3d accel_bias(0.02, -0.02, 0.01), gyro_error(1.0e-4, -0.7e-4, 0.0);
+  AccelBiasParams params;
+  params.gyro_bias_states = true;
+  params.bias_random_walk_m_s2_sqrt_s = 4e-5;
+  params.velocity_sigma_m_s = 0.01;
+  AccelBiasParams without = params;
+  without.gyro_bias_states = false;
+  for (uint32_t seed : {3u, 4u, 5u}) {
+    // WHEN the estimator flies the leg, the turn and the leg back
+    const Flight run = fly(accel_bias, params, true, seed, gyro_error);
+    const std::size_t before_turn = static_cast<std::size_t>(Lawnmower::kStill + Lawnmower::kLeg) - 3;
+    const Eigen::Vector2d start = run.gyro_bias_sigma.front(), leg = run.gyro_bias_sigma[before_turn],
+                          end = run.gyro_bias_sigma.back();
+    std::printf("[ gyro bias sigma ] seed %u: start %.3g %.3g, before the turn %.3g %.3g, end %.3g %.3g rad/s; "
+                "error at the end %.3g %.3g\n",
+                seed, start.x(), start.y(), leg.x(), leg.y(), end.x(), end.y(), run.gyro_bias_error.back().x(),
+                run.gyro_bias_error.back().y());
+    // THEN it starts at the caller's 3e-4 rad/s...
+    EXPECT_NEAR(start.x(), 3e-4, 0.3e-4);
+    EXPECT_NEAR(start.y(), 3e-4, 0.3e-4);
+    // ...is well below it within the first leg (the bias turns the chain's tilt away from
+    // gravity at a steady rate, a straight leg shows it) and stays there to the end...
+    EXPECT_LT(leg.maxCoeff(), 0.3 * start.minCoeff());  // measured 5.2e-5 rad/s
+    EXPECT_LT(end.maxCoeff(), 1.05 * leg.maxCoeff());
+    // ...and still covers the error left (3 sigma), so a prior built on it is not overconfident
+    EXPECT_LT(std::abs(run.gyro_bias_error.back().x()), 3 * end.x()) << "seed " << seed;
+    EXPECT_LT(std::abs(run.gyro_bias_error.back().y()), 3 * end.y()) << "seed " << seed;
+    // AND without the states there is no gyro bias to know
+    EXPECT_EQ(fly(accel_bias, without, true, seed).gyro_bias_sigma.back(), Eigen::Vector2d::Zero());
+  }
 }
 
 TEST(AccelBiasEstimator, TheStartUpTiltIsLearntSoThePublishedFrameStaysTheStartUpFrame) {

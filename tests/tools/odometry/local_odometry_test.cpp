@@ -300,6 +300,10 @@ TEST(LocalOdometry, GuidedTracksGiveSnowItsLostPointsBackAtOneHertz) {
   const drivers::Dataset& ds = oneHertzSurvey("1hz_snow", 137, true, 50);
   odometry::OdometryParams params = visionRotationOnly();
   ASSERT_TRUE(params.guided_tracks.enabled);  // the default this test stands behind
+  // At the feature count it was measured with: the inlier target (default since stop 41) puts
+  // ~3000 features into a 1 Hz snow frame, where the guided tracks still add inliers but vision's
+  // heading step is 0.10 mrad with or without them (101 / 106 urad on this sequence).
+  params.features.controller.target_inliers = 0;
   // WHEN the points descriptor matching missed are looked for where the motion puts them
   const auto run = [&](bool guided) {
     params.guided_tracks.enabled = guided;
@@ -330,7 +334,7 @@ TEST(LocalOdometry, TheInlierTargetBuysTheOneHertzStripMoreInliersAndASharperHea
   // overlaps the previous one, and vision's rotation alone (as above)
   const drivers::Dataset& ds = oneHertzSurvey("1hz_plain_139", 139, false, 40);
   odometry::OdometryParams params = visionRotationOnly();
-  // WHEN the controller holds the feature count only (the default), then also 450 inliers
+  // WHEN the controller holds the feature count only, then also 450 inliers (the default)
   // (up to 3000 features; docs/features.md "Inlier target")
   params.features.controller.max_count = 3000;
   const auto run = [&](int target_inliers) {
