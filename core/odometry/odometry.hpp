@@ -156,10 +156,10 @@ struct OdometryParams {
   /// The rotation prior's gyro-bias term per axis: the tilt rates (body x, y) with the
   /// covariance the accelerometer-bias filter holds for them (accel_bias.gyro_bias_states),
   /// which shrinks as gravity shows the tilt they turn (~5e-5 rad/s within a leg), the heading
-  /// with gyro_bias_sigma's. Off:
-  /// gyro_bias_sigma on all three axes, whatever the filter knows. On since stop 41: with the
-  /// feature controller's inlier target, the 1 Hz vertical error it had doubled came back
-  /// (docs/benchmarks.md); a tighter floor on all axes instead (6e-5) lost the 10 Hz tilt.
+  /// with gyro_bias_sigma's. Off: gyro_bias_sigma on all three axes, whatever the filter
+  /// knows. On since stop 41: with the feature controller's inlier target, the 1 Hz vertical
+  /// error it had doubled came back (docs/benchmarks.md); a tighter floor on all axes instead
+  /// (6e-5) lost the 10 Hz tilt.
   bool gyro_bias_prior_tilt_from_filter = true;
   /// Tilt rates of the gyro bias from gravity (core/imu/gravity_bias_observer.hpp): the change,
   /// from one pair of windows of this length [s] to the next, of the accelerometer's specific

@@ -141,10 +141,13 @@ TEST(AccelBiasEstimator, ConstantBiasIsFoundAcrossTheTurnAndTheTiltHeldToGravity
   EXPECT_GT(without.bias_error.back().norm(), 0.29);
 }
 
+// The paper IMU's accelerometer bias (0.03 m/s^2) and a horizontal gyro bias error a still
+// start leaves (1.2e-4 rad/s: the chain's tilt turns 7 mrad a minute).
+const Eigen::Vector3d kPaperAccelBias(0.02, -0.02, 0.01), kStillStartGyroError(1.0e-4, -0.7e-4, 0.0);
+
 TEST(AccelBiasEstimator, WithGyroBiasStatesAHorizontalGyroBiasErrorIsLearntInsteadOfTiltingTheChain) {
-  // GIVEN the paper IMU's accelerometer bias (0.03 m/s^2) and a horizontal gyro bias error the
-  // still start left (1.2e-4 rad/s: the chain's tilt turns 7 mrad a minute)
-  const Eigen::Vector3d accel_bias(0.02, -0.02, 0.01), gyro_error(1.0e-4, -0.7e-4, 0.0);
+  // GIVEN the paper IMU's accelerometer bias and the gyro bias error a still start leaves
+  const Eigen::Vector3d &accel_bias = kPaperAccelBias, &gyro_error = kStillStartGyroError;
   AccelBiasParams walk;  // the tilt's random walk alone follows the turning chain
   walk.gyro_bias_states = false;
   walk.tilt_random_walk_rad_sqrt_s = 1e-3;
@@ -182,10 +185,10 @@ TEST(AccelBiasEstimator, WithGyroBiasStatesAHorizontalGyroBiasErrorIsLearntInste
 }
 
 TEST(AccelBiasEstimator, TheGyroBiasSigmaShrinksAsGravityShowsTheTiltRateAndCoversTheErrorLeft) {
-  // GIVEN the paper IMU's accelerometer bias and a horizontal gyro bias error the still start
-  // left, the filter with gyro-bias states started at 3e-4 rad/s (the odometry's rotation
-  // prior reads this covariance: OdometryParams::gyro_bias_prior_tilt_from_filter)
-  const Eigen::Vector3d accel_bias(0.02, -0.02, 0.01), gyro_error(1.0e-4, -0.7e-4, 0.0);
+  // GIVEN the paper IMU's accelerometer bias and the gyro bias error a still start leaves, the
+  // filter with gyro-bias states started at 3e-4 rad/s (the odometry's rotation prior reads
+  // this covariance: OdometryParams::gyro_bias_prior_tilt_from_filter)
+  const Eigen::Vector3d &accel_bias = kPaperAccelBias, &gyro_error = kStillStartGyroError;
   AccelBiasParams params;
   params.gyro_bias_states = true;
   params.bias_random_walk_m_s2_sqrt_s = 4e-5;
