@@ -8,8 +8,23 @@
 #include <opencv2/core.hpp>
 
 #include "core/camera/rectified_rig.hpp"
+#include "core/matching/patch_alignment.hpp"
 
 namespace seavio::matching {
+
+/// Stereo points completed by patch alignment (core/matching/stereo_completion.hpp): left
+/// features descriptor matching left without a right partner, aligned in the right image at
+/// the disparity their matched neighbours predict.
+struct StereoCompletionParams {
+  bool enabled = false;
+  int neighbours = 5;                     ///< matched points whose median disparity is the start
+  double max_neighbour_distance_px = 40;  ///< the farthest of them at most this far [px]
+  double max_disparity_spread_px = 3;     ///< their disparities within this (no depth edge) [px]
+  double start_spacing_px = 2;            ///< alignments start at the prediction and this either side [px]
+  double max_row_difference_px = 0.5;     ///< the aligned right pixel's row off the left's [px]
+  double min_separation_px = 1.5;         ///< a matched point this close: the same blob, not tried [px]
+  PatchAlignParams patch;                 ///< the left patch found in the right image
+};
 
 struct StereoMatchParams {
   double min_range_m = 1.5;          ///< nearest floor distance expected along the optical axis [m]
@@ -18,6 +33,7 @@ struct StereoMatchParams {
   float max_descriptor_distance = 0.35f;  ///< L2 (normalised float) or bits/256 scaled for binary
   float ratio = 0.8f;                ///< Lowe ratio test, best / second best
   bool left_right_check = true;      ///< keep only mutual best matches
+  StereoCompletionParams completion;
 };
 
 /// One feature seen in both rectified images of a pair, with its 3D point in R0.

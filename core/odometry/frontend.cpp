@@ -378,6 +378,19 @@ void Frontend::detect(const cv::Mat& rectified, double threshold, features::Surf
   extractor_.extract(rectified, threshold, surf, out, upright_angle_deg);
 }
 
+namespace {
+
+/// Descriptor rows and Laplacian signs of `out.points[from..)`, from their left features.
+void appendLeftDescriptors(const features::Features& left, std::size_t from, matching::StereoFeatures& out) {
+  for (std::size_t i = from; i < out.points.size(); ++i) {
+    const int l = out.points[i].left_index;
+    out.descriptors.push_back(left.descriptors.row(l));
+    out.laplacian_sign.push_back(left.keypoints[static_cast<std::size_t>(l)].class_id);
+  }
+}
+
+}  // namespace
+
 matching::StereoFeatures Frontend::matchStereo(const features::Features& left, const features::Features& right) const {
   matching::StereoFeatures out;
   out.points = matching::matchStereo(left.keypoints, left.descriptors, right.keypoints, right.descriptors,
@@ -396,6 +409,8 @@ void Frontend::matchStereo(const features::Features& left, const features::Featu
                            matching::StereoFeatures& out) const {
   matching::matchStereo(left.keypoints, left.descriptors, right.keypoints, right.descriptors, rectifier_.rig(),
                         stereo_params_, ws.stereo, out.points);
+  matching::completeStereo(left.keypoints, ws.left_rect, ws.right_rect, rectifier_.rig(), stereo_params_,
+                           ws.completion, out.points);
   const int n = static_cast<int>(out.points.size());
   features::fitRows(out.descriptors, n, left.descriptors.cols, left.descriptors.type());
   resizeWithHeadroom(out.laplacian_sign, out.points.size());
@@ -441,6 +456,13 @@ FrameFeatures Frontend::process(const StereoFrame& frame, double threshold, cons
   f.right = detect(right, threshold);
   f.times.features_ms = timer.lap_ms();
   f.stereo = matchStereo(f.left, f.right);
+  if (stereo_params_.completion.enabled) {
+    matching::StereoCompletionWorkspace completion;
+    const std::size_t matched = f.stereo.points.size();
+    matching::completeStereo(f.left.keypoints, left, right, rectifier_.rig(), stereo_params_, completion,
+                             f.stereo.points);
+    appendLeftDescriptors(f.left, matched, f.stereo);
+  }
   f.times.stereo_ms = timer.lap_ms();
   f.left_image = left;
   f.right_image = right;

@@ -12,6 +12,7 @@
 #include "core/camera/stereo_rectifier.hpp"
 #include "core/common/types.hpp"
 #include "core/features/feature_extractor.hpp"
+#include "core/matching/stereo_completion.hpp"
 #include "core/matching/stereo_matcher.hpp"
 #include "core/matching/temporal_matcher.hpp"
 #include "core/odometry/ripple_notch.hpp"
@@ -129,6 +130,7 @@ struct FrontendWorkspace {
   IlluminationScratch illumination_right;
   RippleNotch ripple, ripple_right;  ///< set to the frontend's parameters on first use (and on a change)
   matching::StereoMatchWorkspace stereo;
+  matching::StereoCompletionWorkspace completion;
   /// SURF's buffers, one per image side: the daemon describes left and right at once.
   features::SurfWorkspace surf_left, surf_right;
 };
@@ -160,9 +162,11 @@ class Frontend {
   /// Copies the workspace's rectified images into `f` (FrameFeatures::left_image, right_image),
   /// reusing `f`'s buffers.
   static void keepImages(const FrontendWorkspace& ws, FrameFeatures& f);
-  /// Stereo matching + triangulation of already detected features.
+  /// Stereo matching + triangulation of already detected features (descriptors only: the
+  /// completion by patch alignment, stereo.completion, needs the images: the overloads below).
   matching::StereoFeatures matchStereo(const features::Features& left, const features::Features& right) const;
-  /// The same into `out`, reusing its buffers (points, descriptor rows) and `ws`'s scratch.
+  /// The same into `out`, reusing its buffers (points, descriptor rows) and `ws`'s scratch,
+  /// completed on `ws`'s rectified images (stereo.completion).
   void matchStereo(const features::Features& left, const features::Features& right, FrontendWorkspace& ws,
                    matching::StereoFeatures& out) const;
   /// All three, sequentially, timed with `now` (may be empty).

@@ -302,6 +302,17 @@ void visit(V& v, odometry::OdometryParams& p) {
     v.value("max_descriptor_distance", p.stereo.max_descriptor_distance, 0, 2);
     v.value("ratio", p.stereo.ratio, 0, 1);
     v.flag("left_right_check", p.stereo.left_right_check);
+    v.section("completion", [&] {
+      v.flag("enabled", p.stereo.completion.enabled);
+      v.value("neighbours", p.stereo.completion.neighbours, 1, 16);
+      v.value("max_neighbour_distance_px", p.stereo.completion.max_neighbour_distance_px, 1, 1000);
+      v.value("max_disparity_spread_px", p.stereo.completion.max_disparity_spread_px, 0, 1000);
+      v.value("start_spacing_px", p.stereo.completion.start_spacing_px, 0, 20);
+      v.value("max_row_difference_px", p.stereo.completion.max_row_difference_px, 0, 10);
+      v.value("min_separation_px", p.stereo.completion.min_separation_px, 0, 100);
+      v.value("half_size_px", p.stereo.completion.patch.half_size_px, 1, 15);
+      v.value("min_zncc", p.stereo.completion.patch.min_zncc, -1, 1);
+    });
   });
   v.section("temporal", [&] {
     v.flag("use_prediction", p.temporal.use_prediction);
