@@ -124,8 +124,8 @@ TEST(StereoCompletion, ASnowParticleInTheLeftImageOnlyIsNotCompleted) {
   const camera::RectifiedRig r = rig();
   Pair pair = floorPair(7);
   Scene s = gridScene(r);
-  const cv::Point2f particle(170.3f, 130.6f);  // between grid points
-  cv::circle(pair.left, cv::Point(170, 131), 4, cv::Scalar(250), cv::FILLED, cv::LINE_AA);
+  const cv::Point2f particle(175.3f, 135.6f);  // between grid points
+  cv::circle(pair.left, cv::Point(175, 136), 4, cv::Scalar(250), cv::FILLED, cv::LINE_AA);
   s.keypoints.emplace_back(particle, 8.f);
   const int particle_index = static_cast<int>(s.keypoints.size()) - 1;
   StereoCompletionWorkspace ws;
