@@ -42,6 +42,9 @@ void printMetrics(std::ostream& os, const eval::TrajectoryMetrics& m) {
      << fmt("%.3f", m.mean_vertical_error_m) << " m; heading error mean " << fmt("%.2f", m.mean_heading_error_deg)
      << " deg, max " << fmt("%.2f", m.max_heading_error_deg) << " deg; tilt error mean "
      << fmt("%.2f", m.mean_tilt_error_deg) << " deg, max " << fmt("%.2f", m.max_tilt_error_deg) << " deg\n";
+  if (m.heading_steps > 0)
+    os << "  heading error step on straight stretches: " << fmt("%.1f", 1e6 * m.heading_step_rms_rad)
+       << " urad rms over " << m.heading_steps << " steps (the per-frame noise the heading random-walks with)\n";
   os << "\nATE RMSE after SE(3) Umeyama alignment: " << fmt("%.3f", m.ate_rmse_m) << " m\n";
   if (m.rpe_segments > 0)
     os << "RPE per 10 m (" << m.rpe_segments << " segments): translation " << fmt("%.2f", m.rpe_trans_pct)
@@ -66,9 +69,11 @@ void writeMetricsJson(const std::string& path, const eval::TrajectoryMetrics& m)
       {"mean_vertical_error_m", m.mean_vertical_error_m}, {"mean_heading_error_deg", m.mean_heading_error_deg},
       {"max_heading_error_deg", m.max_heading_error_deg}, {"mean_tilt_error_deg", m.mean_tilt_error_deg},
       {"max_tilt_error_deg", m.max_tilt_error_deg},         {"ate_rmse_m", m.ate_rmse_m},
-      {"rpe_trans_pct", m.rpe_trans_pct},   {"rpe_rot_deg_per_m", m.rpe_rot_deg_per_m}};
+      {"rpe_trans_pct", m.rpe_trans_pct},   {"rpe_rot_deg_per_m", m.rpe_rot_deg_per_m},
+      {"heading_step_rms_rad", m.heading_step_rms_rad}};
   for (const auto& [k, v] : scalars) out << "  \"" << k << "\": " << num(v) << ",\n";
   out << "  \"rpe_segments\": " << m.rpe_segments << ",\n";
+  out << "  \"heading_steps\": " << m.heading_steps << ",\n";
   auto arr = [&](const char* k, const std::vector<double>& v, bool last) {
     out << "  \"" << k << "\": [";
     for (std::size_t i = 0; i < v.size(); ++i) out << (i ? ", " : "") << num(v[i]);

@@ -115,19 +115,29 @@ TrajectoryMetrics evaluateTrajectory(const std::vector<TimedPose>& gt, const std
   // Paper Table I: align on the first pose only, so the error is the drift accumulated
   // from the start.
   const Eigen::Isometry3d T_align = G[0] * E[0].inverse();
-  double sum = 0, sum2 = 0, dist = 0, sum_h = 0, sum_v = 0, sum_yaw = 0, sum_tilt = 0;
+  double sum = 0, sum2 = 0, dist = 0, sum_h = 0, sum_v = 0, sum_yaw = 0, sum_tilt = 0, sum_step2 = 0;
+  // Turn about W's z of a rotation (R_est R_gt^T, or one truth step): the angle of its action
+  // on the horizontal plane (atan2 of the antisymmetric over the symmetric part), exact for a
+  // pure heading change and unaffected to first order by roll and pitch.
+  const auto turnAboutZ = [](const Eigen::Matrix3d& R) { return std::atan2(R(1, 0) - R(0, 1), R(0, 0) + R(1, 1)); };
   for (std::size_t i = 0; i < n; ++i) {
     if (i > 0) dist += (G[i].translation() - G[i - 1].translation()).norm();
     const Eigen::Isometry3d aligned = T_align * E[i];
     const Eigen::Vector3d e = aligned.translation();
     const Eigen::Vector3d d = e - G[i].translation();
     const double err = d.norm();
-    // Turn of R_err = R_est * R_gt^T about W's z: the angle of its action on the horizontal
-    // plane (atan2 of the antisymmetric over the symmetric part), exact for a pure heading
-    // error and unaffected to first order by roll and pitch errors.
     const Eigen::Matrix3d R_err = aligned.linear() * G[i].linear().transpose();
-    const double yaw_deg =
-        std::atan2(R_err(1, 0) - R_err(0, 1), R_err(0, 0) + R_err(1, 1)) * 180.0 / std::numbers::pi;
+    const double yaw_deg = turnAboutZ(R_err) * 180.0 / std::numbers::pi;
+    if (i > 0 && m.t_ns[i] > m.t_ns[i - 1]) {
+      const double dt_s = 1e-9 * static_cast<double>(m.t_ns[i] - m.t_ns[i - 1]);
+      const double gt_turn_rad = turnAboutZ(G[i].linear() * G[i - 1].linear().transpose());
+      if (std::abs(gt_turn_rad) < params.straight_max_turn_rate_rad_s * dt_s) {
+        const double step_rad = std::remainder((yaw_deg - m.heading_error_deg.back()) * std::numbers::pi / 180.0,
+                                               2 * std::numbers::pi);
+        sum_step2 += step_rad * step_rad;
+        ++m.heading_steps;
+      }
+    }
     // Tilt: where R_err takes the vertical; atan2 of its horizontal over its vertical part
     // stays accurate at small angles, where acos of the dot product would not.
     const Eigen::Vector3d up = R_err.col(2);
@@ -153,6 +163,7 @@ TrajectoryMetrics evaluateTrajectory(const std::vector<TimedPose>& gt, const std
   m.mean_vertical_error_m = sum_v / double(n);
   m.mean_heading_error_deg = sum_yaw / double(n);
   m.mean_tilt_error_deg = sum_tilt / double(n);
+  if (m.heading_steps > 0) m.heading_step_rms_rad = std::sqrt(sum_step2 / m.heading_steps);
   m.std_error_m = std::sqrt(std::max(0.0, sum2 / double(n) - m.mean_error_m * m.mean_error_m));
   m.final_error_m = m.error_m.back();
   m.distance_m = dist;

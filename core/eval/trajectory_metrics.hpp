@@ -26,6 +26,9 @@ struct EvalParams {
   double rpe_segment_m = 10.0;
   /// Below this fraction of ground-truth frames covered the result is flagged incomplete.
   double min_coverage = 0.95;
+  /// Steps between consecutive poses count as straight (heading_step_rms_rad) while the
+  /// truth turns slower than this [rad/s].
+  double straight_max_turn_rate_rad_s = 0.01;
 };
 
 struct TrajectoryMetrics {
@@ -60,6 +63,13 @@ struct TrajectoryMetrics {
   /// false acceleration into the IMU prediction.
   double mean_tilt_error_deg = 0;
   double max_tilt_error_deg = 0;
+  /// The heading error's change from one pose to the next on straight stretches (the truth
+  /// turning slower than EvalParams::straight_max_turn_rate_rad_s), rms [rad]: the per-frame
+  /// heading noise that a chain's heading random-walks with (times the square root of the
+  /// frames). Hundreds of steps per survey make it a steadier comparison of two
+  /// configurations than any survey's end error, which one walk decides.
+  double heading_step_rms_rad = 0;
+  int heading_steps = 0;  ///< straight steps it is taken over
 
   double ate_rmse_m = 0;            ///< after SE(3) Umeyama alignment (no scale)
   double rpe_trans_pct = 0;         ///< mean translational error per segment, % of segment length

@@ -67,6 +67,10 @@ TEST(EvalReport, JsonHoldsFiguresAndArrays) {
   EXPECT_NE(s.find(buf), std::string::npos);
   std::snprintf(buf, sizeof(buf), "\"mean_tilt_error_deg\": %.9g", m.mean_tilt_error_deg);
   EXPECT_NE(s.find(buf), std::string::npos);
+  std::snprintf(buf, sizeof(buf), "\"heading_step_rms_rad\": %.9g", m.heading_step_rms_rad);
+  EXPECT_NE(s.find(buf), std::string::npos);
+  std::snprintf(buf, sizeof(buf), "\"heading_steps\": %d,", m.heading_steps);
+  EXPECT_NE(s.find(buf), std::string::npos);
   // Per pose: time, distance, error, heading, tilt and the error along W's x, y and z; the
   // 10 % larger arc is off by a tenth of its position, in the plane.
   EXPECT_EQ(std::count(s.begin(), s.end(), '['), 8);

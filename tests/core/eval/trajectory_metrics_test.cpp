@@ -119,6 +119,36 @@ TEST(TrajectoryMetrics, SplitsTheErrorIntoHorizontalVerticalAndHeading) {
   EXPECT_NEAR(h.max_tilt_error_deg, 0.0, 1e-9);
 }
 
+TEST(TrajectoryMetrics, HeadingStepRmsIsThePerFrameHeadingNoiseOnStraightStretchesOnly) {
+  // GIVEN 10 s straight at 10 Hz, then 10 s turning at 0.2 rad/s; the estimate's heading
+  // error jumps by +-a from frame to frame on the straight and by +-5a in the turn.
+  constexpr double a = 2e-4;
+  std::vector<TimedPose> gt, est;
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  double yaw = 0;
+  for (int i = 0; i < 200; ++i) {
+    TimedPose g;
+    g.t_ns = int64_t(i) * 100'000'000;
+    if (i >= 100) yaw += 0.02;
+    p += 0.1 * Eigen::Vector3d(std::cos(yaw), std::sin(yaw), 0);
+    g.T_W_B.translation() = p;
+    g.T_W_B.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    gt.push_back(g);
+    TimedPose e = g;
+    const double error = i % 2 == 0 ? 0.0 : (i < 100 ? a : 5 * a);
+    e.T_W_B.linear() = Eigen::AngleAxisd(error, Eigen::Vector3d::UnitZ()).toRotationMatrix() * g.T_W_B.linear();
+    est.push_back(e);
+  }
+  const TrajectoryMetrics m = evaluateTrajectory(gt, est);
+  // THEN the 99 straight steps count, the turn's do not (0.2 rad/s > 0.01), and the rms is a.
+  EXPECT_EQ(m.heading_steps, 99);
+  EXPECT_NEAR(m.heading_step_rms_rad, a, 1e-9);
+  // A constant heading error has no steps.
+  for (auto& e : est) e.T_W_B.linear() = Eigen::AngleAxisd(0.01, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  for (std::size_t i = 0; i < est.size(); ++i) est[i].T_W_B.linear() = est[i].T_W_B.linear() * gt[i].T_W_B.linear();
+  EXPECT_NEAR(evaluateTrajectory(gt, est).heading_step_rms_rad, 0, 1e-9);
+}
+
 TEST(TrajectoryMetrics, InterpolatesGroundTruthBetweenSamples) {
   // Estimate at 10 Hz, offset by 50 ms: halfway between ground-truth samples.
   const auto gt = line(5.0);
