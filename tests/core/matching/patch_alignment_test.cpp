@@ -8,22 +8,12 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/matching/patch_alignment.hpp"
+#include "tests/core/matching/sand_texture.hpp"
 
 namespace seavio::matching {
 namespace {
 
-/// Sand-like texture: blurred white noise, grey 128 +- ~40.
-cv::Mat texture(int seed, int size = 240) {
-  cv::Mat f(size, size, CV_32F);
-  cv::RNG rng(static_cast<uint64_t>(seed));
-  rng.fill(f, cv::RNG::NORMAL, 0, 1);
-  cv::GaussianBlur(f, f, cv::Size(), 2.0);
-  cv::Scalar mean, sd;
-  cv::meanStdDev(f, mean, sd);
-  cv::Mat out;
-  f.convertTo(out, CV_8U, 40.0 / sd[0], 128 - 40.0 * mean[0] / sd[0]);
-  return out;
-}
+cv::Mat texture(int seed, int size = 240) { return test::sandTexture(seed, cv::Size(size, size)); }
 
 /// `ref` moved by the affine map p -> A p + t (floating point, then 8 bit), grey levels
 /// scaled by `gain`, raised by `offset`, with Gaussian noise of `noise_dn`.

@@ -5,24 +5,12 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/matching/stereo_completion.hpp"
+#include "tests/core/matching/sand_texture.hpp"
 
 namespace seavio::matching {
 namespace {
 
 constexpr double kDisparityPx = 20.25;  // a flat floor facing the rig: one disparity everywhere
-
-/// Sand-like texture: blurred white noise, grey 128 +- ~40.
-cv::Mat texture(int seed, cv::Size size) {
-  cv::Mat f(size, CV_32F);
-  cv::RNG rng(static_cast<uint64_t>(seed));
-  rng.fill(f, cv::RNG::NORMAL, 0, 1);
-  cv::GaussianBlur(f, f, cv::Size(), 2.0);
-  cv::Scalar mean, sd;
-  cv::meanStdDev(f, mean, sd);
-  cv::Mat out;
-  f.convertTo(out, CV_32F, 40.0 / sd[0], 128 - 40.0 * mean[0] / sd[0]);
-  return out;
-}
 
 camera::RectifiedRig rig() {
   camera::RectifiedRig r;
@@ -41,7 +29,7 @@ struct Pair {
 
 /// The right image is the left moved by the disparity along the row (sub-pixel, cubic).
 Pair floorPair(int seed) {
-  const cv::Mat world = texture(seed, cv::Size(320, 240));
+  const cv::Mat world = test::sandTexture(seed, cv::Size(320, 240), CV_32F);
   Pair p;
   world.convertTo(p.left, CV_8U);
   const cv::Mat M = (cv::Mat_<double>(2, 3) << 1, 0, -kDisparityPx, 0, 1, 0);
