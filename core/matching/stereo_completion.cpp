@@ -21,6 +21,7 @@ int completeStereo(const std::vector<cv::KeyPoint>& left, const cv::Mat& left_im
   if (!p.enabled || left_image.empty() || right_image.empty() || points.empty() || rig.f_px <= 0 ||
       rig.baseline_m <= 0)
     return 0;
+  if (static_cast<double>(points.size()) >= p.max_matched_share * static_cast<double>(left.size())) return 0;
   const int wanted = std::clamp(p.neighbours, 1, kMaxNeighbours);
   const std::size_t n_matched = points.size();
   ws.matched.assign(left.size(), 0);

@@ -17,6 +17,11 @@ namespace seavio::matching {
 /// the disparity their matched neighbours predict.
 struct StereoCompletionParams {
   bool enabled = false;
+  /// Only frames whose descriptor matching paired less than this share of the left features
+  /// are completed: snow (0.26-0.49 at 1 and 10 Hz), not clear water (0.54-0.76), where the
+  /// points completion adds would let the feature controller reach its inlier target with
+  /// fewer, weaker features (1 Hz plain heading noise +6 % with completion on every frame).
+  double max_matched_share = 0.5;
   int neighbours = 5;                     ///< matched points whose median disparity is the start
   double max_neighbour_distance_px = 40;  ///< the farthest of them at most this far [px]
   double max_disparity_spread_px = 3;     ///< their disparities within this (no depth edge) [px]

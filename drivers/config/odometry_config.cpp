@@ -304,6 +304,7 @@ void visit(V& v, odometry::OdometryParams& p) {
     v.flag("left_right_check", p.stereo.left_right_check);
     v.section("completion", [&] {
       v.flag("enabled", p.stereo.completion.enabled);
+      v.value("max_matched_share", p.stereo.completion.max_matched_share, 0, 1);
       v.value("neighbours", p.stereo.completion.neighbours, 1, 16);
       v.value("max_neighbour_distance_px", p.stereo.completion.max_neighbour_distance_px, 1, 1000);
       v.value("max_disparity_spread_px", p.stereo.completion.max_disparity_spread_px, 0, 1000);

@@ -66,9 +66,11 @@ Scene gridScene(const camera::RectifiedRig& r, double matched_disparity = kDispa
   return s;
 }
 
+/// Completion on for any share of paired features (the grid pairs half of them).
 StereoMatchParams enabled() {
   StereoMatchParams p;
   p.completion.enabled = true;
+  p.completion.max_matched_share = 1.0;
   return p;
 }
 
@@ -134,6 +136,19 @@ TEST(StereoCompletion, NeighboursDisagreeingInDepthAreNoPrediction) {
   StereoCompletionWorkspace ws;
   EXPECT_EQ(completeStereo(s.keypoints, pair.left, pair.right, r, enabled(), ws, s.matched), 0);
   EXPECT_EQ(s.matched.size(), before);
+}
+
+TEST(StereoCompletion, AFrameWhoseDescriptorsPairedHalfItsFeaturesIsLeftAlone) {
+  // The grid scene pairs every other keypoint: a share of 0.5 (clear water's frames pair more).
+  const camera::RectifiedRig r = rig();
+  const Pair pair = floorPair(13);
+  Scene s = gridScene(r);
+  StereoMatchParams p = enabled();
+  StereoCompletionWorkspace ws;
+  p.completion.max_matched_share = 0.5;
+  EXPECT_EQ(completeStereo(s.keypoints, pair.left, pair.right, r, p, ws, s.matched), 0);
+  p.completion.max_matched_share = 0.55;
+  EXPECT_GT(completeStereo(s.keypoints, pair.left, pair.right, r, p, ws, s.matched), 0);
 }
 
 TEST(StereoCompletion, DisabledOrWithoutImagesAddsNothing) {
