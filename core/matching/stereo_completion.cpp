@@ -31,8 +31,8 @@ int completeStereo(const std::vector<cv::KeyPoint>& left, const cv::Mat& left_im
     const int l = points[i].left_index;
     if (l >= 0 && static_cast<std::size_t>(l) < left.size()) ws.matched[static_cast<std::size_t>(l)] = 1;
   }
-  std::sort(ws.by_row.begin(), ws.by_row.end(),
-            [&](int a, int b) { return points[static_cast<std::size_t>(a)].uv_left.y() < points[static_cast<std::size_t>(b)].uv_left.y(); });
+  const auto row = [&](int i) { return points[static_cast<std::size_t>(i)].uv_left.y(); };
+  std::sort(ws.by_row.begin(), ws.by_row.end(), [&](int a, int b) { return row(a) < row(b); });
   const double d_min = rig.disparityAt(stereo.max_range_m), d_max = rig.disparityAt(stereo.min_range_m);
   const float reach = static_cast<float>(p.max_neighbour_distance_px);
   const float separation2 = static_cast<float>(p.min_separation_px * p.min_separation_px);
@@ -45,9 +45,8 @@ int completeStereo(const std::vector<cv::KeyPoint>& left, const cv::Mat& left_im
     const Eigen::Vector2f uv(left[k].pt.x, left[k].pt.y);
     // The `wanted` nearest matched points within `reach`, by insertion (a handful at most).
     int count = 0;
-    const auto first = std::lower_bound(ws.by_row.begin(), ws.by_row.end(), uv.y() - reach, [&](int i, float row) {
-      return points[static_cast<std::size_t>(i)].uv_left.y() < row;
-    });
+    const auto first = std::lower_bound(ws.by_row.begin(), ws.by_row.end(), uv.y() - reach,
+                                        [&](int i, float y) { return row(i) < y; });
     for (auto it = first; it != ws.by_row.end(); ++it) {
       const StereoPoint& m = points[static_cast<std::size_t>(*it)];
       if (m.uv_left.y() > uv.y() + reach) break;
@@ -63,7 +62,8 @@ int completeStereo(const std::vector<cv::KeyPoint>& left, const cv::Mat& left_im
       count = std::min(count + 1, wanted);
     }
     if (count < wanted || near[0].distance2_px2 < separation2) continue;
-    for (int j = 0; j < count; ++j) disparities[static_cast<std::size_t>(j)] = near[static_cast<std::size_t>(j)].disparity_px;
+    for (int j = 0; j < count; ++j)
+      disparities[static_cast<std::size_t>(j)] = near[static_cast<std::size_t>(j)].disparity_px;
     std::sort(disparities.begin(), disparities.begin() + count);
     if (disparities[static_cast<std::size_t>(count - 1)] - disparities[0] > p.max_disparity_spread_px) continue;
     const float predicted = disparities[static_cast<std::size_t>(count / 2)];
@@ -74,7 +74,8 @@ int completeStereo(const std::vector<cv::KeyPoint>& left, const cv::Mat& left_im
     for (const float offset : offsets) {
       const Eigen::Vector2f start(uv.x() - predicted + offset, uv.y());
       const PatchAlignment a = alignPatch(tmpl, right_image, start, Eigen::Matrix2f::Identity(), p.patch);
-      if (a.ok && std::abs(a.uv.y() - uv.y()) <= p.max_row_difference_px && (!best.ok || a.zncc > best.zncc)) best = a;
+      const bool on_row = std::abs(a.uv.y() - uv.y()) <= p.max_row_difference_px;
+      if (a.ok && on_row && (!best.ok || a.zncc > best.zncc)) best = a;
     }
     if (!best.ok) continue;
     const double disparity = static_cast<double>(uv.x() - best.uv.x());

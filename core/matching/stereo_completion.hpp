@@ -9,6 +9,7 @@
 /// patch around the keypoint mostly misses the particles, and the floor is smooth at that
 /// scale, so the neighbours' disparity puts the alignment within its reach. A particle's own
 /// keypoint, at another depth, does not align at the floor's disparity and is dropped.
+#include <cstdint>
 #include <vector>
 
 #include <opencv2/core.hpp>

@@ -61,7 +61,8 @@ Scene gridScene(const camera::RectifiedRig& r, double matched_disparity = kDispa
     for (int u = 60; u <= 280; u += 10) {
       const int i = static_cast<int>(s.keypoints.size());
       s.keypoints.emplace_back(static_cast<float>(u) + 0.3f, static_cast<float>(v) + 0.6f, 12.f);
-      if (i % 2 == 0) s.matched.push_back(matchedAt(r, i, s.keypoints.back().pt.x, s.keypoints.back().pt.y, matched_disparity));
+      const cv::Point2f pt = s.keypoints.back().pt;
+      if (i % 2 == 0) s.matched.push_back(matchedAt(r, i, pt.x, pt.y, matched_disparity));
     }
   return s;
 }
