@@ -176,6 +176,7 @@ void RunStats::writeJson(const std::string& path) const {
     // What corrected an IMU-only frame's coasting (issue 5; "none" on visual frames).
     os << fmt::format(", \"coasting\": \"{}\"", coastingName(f.coasting));
     os << fmt::format(", \"guided_tracks\": {}, \"patch_ms\": {:.3f}", f.quality.guided_tracks, f.times.patch_ms);
+    os << fmt::format(", \"stereo_completed\": {}", f.quality.stereo_completed);
     // The position sigma the odometry claims (global mode sizes its revisit search by it).
     os << fmt::format(", \"position_sigma_m\": {:.4f}, \"map_refined\": {}",
                       std::sqrt(std::max(f.covariance.bottomRightCorner<3, 3>().trace(), 0.0)),

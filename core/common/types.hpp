@@ -71,7 +71,8 @@ struct StageTimes {
 struct Quality {
   int features_left = 0;
   int features_right = 0;
-  int stereo_matches = 0;
+  int stereo_matches = 0;    ///< stereo points, completed ones included
+  int stereo_completed = 0;  ///< of those, added by stereo completion (not descriptor matches)
   int temporal_matches = 0;
   int ransac_inliers = 0;
   int guided_tracks = 0;  ///< reference points found by patch alignment, not descriptors (before RANSAC's verdict)

@@ -36,6 +36,9 @@ struct StereoFeatures {
   std::vector<StereoPoint> points;
   cv::Mat descriptors;
   std::vector<int> laplacian_sign;  ///< per point, from the keypoint's class_id (-1 = unknown)
+  /// How many of `points`, at the end, stereo completion added (stereo_completion.hpp); the
+  /// rest are descriptor matches.
+  int completed = 0;
 };
 
 /// Scratch of matchTemporal kept across frames by its owner, so a warm call allocates nothing

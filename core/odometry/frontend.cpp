@@ -395,13 +395,8 @@ matching::StereoFeatures Frontend::matchStereo(const features::Features& left, c
   matching::StereoFeatures out;
   out.points = matching::matchStereo(left.keypoints, left.descriptors, right.keypoints, right.descriptors,
                                      rectifier_.rig(), stereo_params_);
-  out.descriptors.create(static_cast<int>(out.points.size()), left.descriptors.cols, left.descriptors.type());
-  out.laplacian_sign.resize(out.points.size());
-  for (std::size_t i = 0; i < out.points.size(); ++i) {
-    const int l = out.points[i].left_index;
-    left.descriptors.row(l).copyTo(out.descriptors.row(static_cast<int>(i)));
-    out.laplacian_sign[i] = left.keypoints[static_cast<std::size_t>(l)].class_id;
-  }
+  out.descriptors.create(0, left.descriptors.cols, left.descriptors.type());  // typed even when empty
+  appendLeftDescriptors(left, 0, out);
   return out;
 }
 
@@ -409,8 +404,8 @@ void Frontend::matchStereo(const features::Features& left, const features::Featu
                            matching::StereoFeatures& out) const {
   matching::matchStereo(left.keypoints, left.descriptors, right.keypoints, right.descriptors, rectifier_.rig(),
                         stereo_params_, ws.stereo, out.points);
-  matching::completeStereo(left.keypoints, ws.left_rect, ws.right_rect, rectifier_.rig(), stereo_params_,
-                           ws.completion, out.points);
+  out.completed = matching::completeStereo(left.keypoints, ws.left_rect, ws.right_rect, rectifier_.rig(),
+                                           stereo_params_, ws.completion, out.points);
   const int n = static_cast<int>(out.points.size());
   features::fitRows(out.descriptors, n, left.descriptors.cols, left.descriptors.type());
   resizeWithHeadroom(out.laplacian_sign, out.points.size());
@@ -459,8 +454,8 @@ FrameFeatures Frontend::process(const StereoFrame& frame, double threshold, cons
   if (stereo_params_.completion.enabled) {
     matching::StereoCompletionWorkspace completion;
     const std::size_t matched = f.stereo.points.size();
-    matching::completeStereo(f.left.keypoints, left, right, rectifier_.rig(), stereo_params_, completion,
-                             f.stereo.points);
+    f.stereo.completed = matching::completeStereo(f.left.keypoints, left, right, rectifier_.rig(),
+                                                  stereo_params_, completion, f.stereo.points);
     appendLeftDescriptors(f.left, matched, f.stereo);
   }
   f.times.stereo_ms = timer.lap_ms();

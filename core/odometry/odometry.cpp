@@ -16,6 +16,11 @@ namespace {
 
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
+/// The stereo matches the feature controller holds (target_stereo_matches): descriptor matches
+/// only. Completed points come on top of the features it keeps; counted, they would make it
+/// keep fewer features where completion helps most (snow at 10 Hz, stop 42).
+int descriptorStereoMatches(const Quality& q) { return q.stereo_matches - q.stereo_completed; }
+
 /// Relative-motion covariance (rotation, translation) from the propagated error state.
 Matrix6d relativeCovariance(const imu::Matrix9d& P) {
   Matrix6d C = Matrix6d::Zero();
@@ -273,6 +278,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   r.quality.features_left = static_cast<int>(frame.left.keypoints.size());
   r.quality.features_right = static_cast<int>(frame.right.keypoints.size());
   r.quality.stereo_matches = static_cast<int>(frame.stereo.points.size());
+  r.quality.stereo_completed = frame.stereo.completed;
   r.quality.detector_threshold = frame.detector_threshold;
 
   // Keep IMU samples across calls so integration can interpolate at the frame boundaries.
@@ -288,7 +294,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     r.source = PoseSource::kInit;
     // Paper III-B: a proportional controller holds the feature count (and, in snow, the stereo
     // matches) for the next frame; nothing tracked yet, so no inliers.
-    controller_.update(r.quality.features_left, r.quality.stereo_matches, -1);
+    controller_.update(r.quality.features_left, descriptorStereoMatches(r.quality), -1);
     const Eigen::Isometry3d T_W_R0 = state_.T_W_B * T_B_R0;
     if (params_.mode == Mode::kGlobal && deferred_) {
       makeGlobalRequest(frame, T_W_R0, r, true);
@@ -886,7 +892,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   r.times.total_ms = r.times.rectify_ms + r.times.features_ms + r.times.stereo_ms + timer.total_ms();
   // Paper III-B's controller for the next frame, also holding the inliers against the previous
   // frame (target_inliers: the overlap decides how many features become inliers).
-  controller_.update(r.quality.features_left, r.quality.stereo_matches,
+  controller_.update(r.quality.features_left, descriptorStereoMatches(r.quality),
                      reference_is_previous ? r.quality.ransac_inliers : -1);
   return r;
 }

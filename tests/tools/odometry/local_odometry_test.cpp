@@ -203,6 +203,35 @@ TEST(LocalOdometry, SnowGetsTheFeaturesItNeedsForClearWatersStereoMatches) {
   EXPECT_NEAR(plain.features, defaults.features.controller.target_count, 25);
 }
 
+TEST(LocalOdometry, StereoCompletionComesOnTopOfTheStereoMatchesTheControllerHolds) {
+  // GIVEN the snow survey, with stereo completion on
+  odometry::OdometryParams completing;
+  completing.stereo.completion.enabled = true;
+  const int target = completing.features.controller.target_stereo_matches;
+  ASSERT_GT(target, 0);
+  std::vector<double> features, descriptor_matches, completed;
+  int frame = 0;
+  // WHEN it runs
+  runOdometry(sequence(202, true), completing, [&](const OdometryResult& r) {
+    if (++frame <= 10) return;  // the controller settling
+    features.push_back(r.quality.features_left);
+    descriptor_matches.push_back(r.quality.stereo_matches - r.quality.stereo_completed);
+    completed.push_back(r.quality.stereo_completed);
+  });
+  const auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  RecordProperty("features", static_cast<int>(median(features)));
+  RecordProperty("completed", static_cast<int>(median(completed)));
+  // THEN completion adds points, and the controller still raises the features until the
+  // descriptor matches alone reach its target: the completed points are not counted towards
+  // it (counted, the matches would sit below the target by about the completed share)
+  EXPECT_GT(median(completed), 0.2 * target);
+  EXPECT_NEAR(median(descriptor_matches), target, 0.1 * target);
+  EXPECT_GT(median(features), 1.3 * completing.features.controller.target_count);
+}
+
 /// Vision's own steps: for every pair of consecutive visual frames, the heading error of the
 /// estimated step against the true one (about the body's z axis), and the frame's inliers and
 /// guided tracks. With the gyro prior and bias learning off, the step is what vision measured.
