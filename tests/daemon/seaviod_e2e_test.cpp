@@ -364,6 +364,9 @@ class ImuFeeder {
         std::vector<uint8_t> pkt = seavio::drivers::vectornavEncode(m);
         if (plan.garbage_at_ns >= 0 && !garbage_done && rel >= plan.garbage_at_ns) {
           garbage_done = true;
+          // Only once seaviod is reading (a daemon still starting on a loaded machine would
+          // get everything below in one read).
+          waitUntilRead(scaled(5000ms));
           // Line noise without a sync byte, then this sample with a broken CRC...
           std::vector<uint8_t> noise(kGarbageBytes);
           for (int i = 0; i < kGarbageBytes; ++i) noise[i] = static_cast<uint8_t>(0x30 + i);
@@ -372,12 +375,13 @@ class ImuFeeder {
           bad.back() ^= 0x5A;
           put(bad);
           // ...and the next one split across two writes (a partial packet). The second part
-          // goes 20 ms later (the pty hands bytes written on the master to the slave's queue
-          // asynchronously) and then only once seaviod has read the first (the slave's input
-          // queue is empty): a reader scheduled late on a busy machine would otherwise get
-          // both parts in one read and see no partial packet.
+          // goes only once seaviod has read the first: the pty hands bytes written on the
+          // master to the slave's queue asynchronously (on a loaded machine after more than
+          // the 20 ms this waited until stop 43), so wait for them to arrive there, then for
+          // the queue to empty; a reader scheduled late would otherwise get both parts in one
+          // read and see no partial packet.
           put(std::vector<uint8_t>(pkt.begin(), pkt.begin() + 10));
-          std::this_thread::sleep_for(20ms);
+          waitUntilQueued(scaled(500ms));
           waitUntilRead(scaled(2000ms));
           put(std::vector<uint8_t>(pkt.begin() + 10, pkt.end()));
           continue;
@@ -398,6 +402,14 @@ class ImuFeeder {
     const auto until = std::chrono::steady_clock::now() + timeout;
     int queued = 0;
     while (ioctl(slave_, FIONREAD, &queued) == 0 && queued > 0 && std::chrono::steady_clock::now() < until)
+      std::this_thread::sleep_for(1ms);
+  }
+  /// Returns once bytes are waiting on the slave side, or `timeout` (they may already have
+  /// been read: then the timeout is the only cost).
+  void waitUntilQueued(std::chrono::milliseconds timeout) const {
+    const auto until = std::chrono::steady_clock::now() + timeout;
+    int queued = 0;
+    while (ioctl(slave_, FIONREAD, &queued) == 0 && queued == 0 && std::chrono::steady_clock::now() < until)
       std::this_thread::sleep_for(1ms);
   }
   void put(const std::vector<uint8_t>& b) {
