@@ -16,7 +16,7 @@ namespace seavio::matching {
 /// features descriptor matching left without a right partner, aligned in the right image at
 /// the disparity their matched neighbours predict.
 struct StereoCompletionParams {
-  bool enabled = false;
+  bool enabled = true;
   /// Only frames whose descriptor matching paired less than this share of the left features
   /// are completed: snow (0.26-0.49 at 1 and 10 Hz), not clear water (0.54-0.76), where the
   /// points completion adds would let the feature controller reach its inlier target with

@@ -173,7 +173,7 @@ TEST(LocalOdometry, SnowGetsTheFeaturesItNeedsForClearWatersStereoMatches) {
     runOdometry(ds, params, [&](const OdometryResult& r) {
       if (++frame <= 10) return;  // the controller settling
       features.push_back(r.quality.features_left);
-      stereo.push_back(r.quality.stereo_matches);
+      stereo.push_back(r.quality.stereo_matches - r.quality.stereo_completed);  // what the target holds
       inliers.push_back(r.quality.ransac_inliers);
     });
     const auto median = [](std::vector<double> v) {
@@ -205,8 +205,8 @@ TEST(LocalOdometry, SnowGetsTheFeaturesItNeedsForClearWatersStereoMatches) {
 
 TEST(LocalOdometry, StereoCompletionComesOnTopOfTheStereoMatchesTheControllerHolds) {
   // GIVEN the snow survey, with stereo completion on
-  odometry::OdometryParams completing;
-  completing.stereo.completion.enabled = true;
+  const odometry::OdometryParams completing;
+  ASSERT_TRUE(completing.stereo.completion.enabled);  // the default this test stands behind
   const int target = completing.features.controller.target_stereo_matches;
   ASSERT_GT(target, 0);
   std::vector<double> features, descriptor_matches, completed;
@@ -333,6 +333,9 @@ TEST(LocalOdometry, GuidedTracksGiveSnowItsLostPointsBackAtOneHertz) {
   // ~3000 features into a 1 Hz snow frame, where the guided tracks still add inliers but vision's
   // heading step is 0.10 mrad with or without them (101 / 106 urad on this sequence).
   params.features.controller.target_inliers = 0;
+  // And without stereo completion (default since stop 43), which gives snow lost points back
+  // before the guided tracks do (measured with it: 0.27 -> 0.24 mrad, within this test's 15 %).
+  params.stereo.completion.enabled = false;
   // WHEN the points descriptor matching missed are looked for where the motion puts them
   const auto run = [&](bool guided) {
     params.guided_tracks.enabled = guided;
