@@ -366,7 +366,7 @@ class ImuFeeder {
           garbage_done = true;
           // Only once seaviod is reading (a daemon still starting on a loaded machine would
           // get everything below in one read).
-          waitUntilRead(scaled(5000ms));
+          waitForQueue(kEmpty, scaled(5000ms));
           // Line noise without a sync byte, then this sample with a broken CRC...
           std::vector<uint8_t> noise(kGarbageBytes);
           for (int i = 0; i < kGarbageBytes; ++i) noise[i] = static_cast<uint8_t>(0x30 + i);
@@ -381,8 +381,8 @@ class ImuFeeder {
           // the queue to empty; a reader scheduled late would otherwise get both parts in one
           // read and see no partial packet.
           put(std::vector<uint8_t>(pkt.begin(), pkt.begin() + 10));
-          waitUntilQueued(scaled(500ms));
-          waitUntilRead(scaled(2000ms));
+          waitForQueue(kHoldsBytes, scaled(500ms));
+          waitForQueue(kEmpty, scaled(2000ms));
           put(std::vector<uint8_t>(pkt.begin() + 10, pkt.end()));
           continue;
         }
@@ -397,19 +397,16 @@ class ImuFeeder {
   uint64_t bytesLost() const { return lost_; }
 
  private:
-  /// Returns once every byte written so far has been read on the slave side, or `timeout`.
-  void waitUntilRead(std::chrono::milliseconds timeout) const {
+  /// The slave side's input queue: kEmpty = every byte written so far has been read;
+  /// kHoldsBytes = bytes have arrived (they may already have been read: then the timeout is
+  /// the only cost).
+  enum QueueState { kEmpty, kHoldsBytes };
+  /// Returns once the queue is in `state`, or `timeout`.
+  void waitForQueue(QueueState state, std::chrono::milliseconds timeout) const {
     const auto until = std::chrono::steady_clock::now() + timeout;
     int queued = 0;
-    while (ioctl(slave_, FIONREAD, &queued) == 0 && queued > 0 && std::chrono::steady_clock::now() < until)
-      std::this_thread::sleep_for(1ms);
-  }
-  /// Returns once bytes are waiting on the slave side, or `timeout` (they may already have
-  /// been read: then the timeout is the only cost).
-  void waitUntilQueued(std::chrono::milliseconds timeout) const {
-    const auto until = std::chrono::steady_clock::now() + timeout;
-    int queued = 0;
-    while (ioctl(slave_, FIONREAD, &queued) == 0 && queued == 0 && std::chrono::steady_clock::now() < until)
+    while (ioctl(slave_, FIONREAD, &queued) == 0 && (queued > 0) != (state == kHoldsBytes) &&
+           std::chrono::steady_clock::now() < until)
       std::this_thread::sleep_for(1ms);
   }
   void put(const std::vector<uint8_t>& b) {

@@ -218,7 +218,7 @@ TEST(LocalOdometry, StereoCompletionComesOnTopOfTheStereoMatchesTheControllerHol
     descriptor_matches.push_back(r.quality.stereo_matches - r.quality.stereo_completed);
     completed.push_back(r.quality.stereo_completed);
   });
-  const auto median = [](const std::vector<double>& v) { return testing_support::median(v); };
+  using testing_support::median;
   RecordProperty("features", static_cast<int>(median(features)));
   RecordProperty("completed", static_cast<int>(median(completed)));
   // THEN completion adds points, and the controller still raises the features until the
