@@ -218,6 +218,42 @@ void normalizeIllumination(const cv::Mat& in, cv::Mat& out, const IlluminationPa
   }
 }
 
+namespace {
+/// The opening's cut limited to the snow: a pixel within one of a dot (more than `dot_dn` above
+/// the opening) takes the opening, so the dot and its halo go; elsewhere the pixel keeps up to
+/// `keep_dn` above the opening, so the floor's own fine bright texture, which a plain opening
+/// flattens too, survives. `near_dot` is scratch (CV_8UC1, the image's size). May run in place.
+void cutSnowDots(const cv::Mat& in, const cv::Mat& opened, cv::Mat& out, const SnowFilterParams& params,
+                 cv::Mat& near_dot) {
+  const int w = in.cols, h = in.rows;
+  // near_dot: the rows' dots dilated by one column; the row dilation follows in the output loop.
+  near_dot.create(h, w, CV_8UC1);
+  for (int y = 0; y < h; ++y) {
+    const uint8_t* s = in.ptr<uint8_t>(y);
+    const uint8_t* o = opened.ptr<uint8_t>(y);
+    uint8_t* m = near_dot.ptr<uint8_t>(y);
+    std::fill(m, m + w, uint8_t{0});
+    for (int x = 0; x < w; ++x) {
+      if (s[x] - o[x] <= params.dot_dn) continue;
+      m[x] = 1;
+      if (x > 0) m[x - 1] = 1;
+      if (x + 1 < w) m[x + 1] = 1;
+    }
+  }
+  out.create(h, w, CV_8UC1);
+  for (int y = 0; y < h; ++y) {
+    const uint8_t* s = in.ptr<uint8_t>(y);
+    const uint8_t* o = opened.ptr<uint8_t>(y);
+    const uint8_t* m0 = near_dot.ptr<uint8_t>(std::max(0, y - 1));
+    const uint8_t* m1 = near_dot.ptr<uint8_t>(y);
+    const uint8_t* m2 = near_dot.ptr<uint8_t>(std::min(h - 1, y + 1));
+    uint8_t* d = out.ptr<uint8_t>(y);
+    for (int x = 0; x < w; ++x)
+      d[x] = (m0[x] | m1[x] | m2[x]) ? o[x] : static_cast<uint8_t>(std::min<int>(s[x], o[x] + params.keep_dn));
+  }
+}
+}  // namespace
+
 SnowFilter::SnowFilter(const SnowFilterParams& params) : params_(params) {
   if (!params_.enabled || params_.kernel_px < 2) return;
   const int k = params_.kernel_px;
@@ -304,7 +340,12 @@ void SnowFilter::apply(const cv::Mat& in, cv::Mat& out) {
     return;
   }
   morph(in, eroded_, true);
-  morph(eroded_, out, false);
+  if (params_.keep_dn <= 0) {
+    morph(eroded_, out, false);
+    return;
+  }
+  morph(eroded_, opened_, false);
+  cutSnowDots(in, opened_, out, params_, near_dot_);
 }
 
 void suppressSnow(const cv::Mat& in, cv::Mat& out, const SnowFilterParams& params) {
@@ -313,7 +354,13 @@ void suppressSnow(const cv::Mat& in, cv::Mat& out, const SnowFilterParams& param
     return;
   }
   const cv::Mat disc = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(params.kernel_px, params.kernel_px));
-  cv::morphologyEx(in, out, cv::MORPH_OPEN, disc, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+  if (params.keep_dn <= 0) {
+    cv::morphologyEx(in, out, cv::MORPH_OPEN, disc, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+    return;
+  }
+  cv::Mat opened, near_dot;
+  cv::morphologyEx(in, opened, cv::MORPH_OPEN, disc, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+  cutSnowDots(in, opened, out, params, near_dot);
 }
 
 Frontend::Frontend(camera::StereoRectifier rectifier, const features::FeatureParams& feature_params,
@@ -353,7 +400,9 @@ void Frontend::rectifySide(int cam, const StereoFrame& frame, FrontendWorkspace&
   SnowFilter& snow = cam == 0 ? ws.snow : ws.snow_right;
   rectifier_.rectifyOne(cam, cam == 0 ? frame.left : frame.right, rect);
   if (snow_.enabled) {
-    if (snow.params().enabled != snow_.enabled || snow.params().kernel_px != snow_.kernel_px) snow = SnowFilter(snow_);
+    if (snow.params().enabled != snow_.enabled || snow.params().kernel_px != snow_.kernel_px ||
+        snow.params().keep_dn != snow_.keep_dn || snow.params().dot_dn != snow_.dot_dn)
+      snow = SnowFilter(snow_);
     snow.apply(rect, rect);
   }
   if (illumination_.enabled)

@@ -83,13 +83,21 @@ void normalizeIllumination(const cv::Mat& in, cv::Mat& out, const IlluminationPa
 /// responses, they crowd the floor out of the feature budget and, moving with their own
 /// parallax, never match from frame to frame (at 1 Hz no frame survived). A grey-level
 /// opening (erode then dilate) with a disc wider than the dots removes them and leaves the
-/// larger floor texture and dark structure alone.
+/// larger floor texture and dark structure alone. It flattens the floor's own fine bright
+/// texture too, which costs heading (1 Hz, 300 frames of six surveys: 133 urad per step on
+/// clear water with the opening, 98 with only the dots opened; docs/benchmarks.md, stop 44).
+/// `keep_dn` > 0 opens only the dots: pixels near one more than `dot_dn` above the opening;
+/// the rest keep up to `keep_dn` above it. Off by default until the IMU's weight is revisited
+/// with the sharper images (two IMU-against-vision tests turn round; the benchmark note says how).
 struct SnowFilterParams {
   bool enabled = true;
-  int kernel_px = 5;  ///< disc diameter [px]: bright spots narrower than this vanish
+  int kernel_px = 5;  ///< disc diameter [px]: bright spots narrower than this are dots
+  int keep_dn = 0;    ///< [DN] a pixel away from dots keeps up to this above the opening (255: untouched; 0: the plain opening)
+  int dot_dn = 40;    ///< [DN] a pixel this far above the opening is a dot: it and its 8 neighbours take the opening
 };
 
-/// Opens `in` into `out` (CV_8UC1) with a `params.kernel_px` disc; a copy when disabled.
+/// Opens `in` into `out` (CV_8UC1) with a `params.kernel_px` disc, cut as the parameters say;
+/// a copy when disabled.
 void suppressSnow(const cv::Mat& in, cv::Mat& out, const SnowFilterParams& params);
 
 /// The snow filter's disc as horizontal runs (made once) and its buffers. The opening is done
@@ -115,7 +123,7 @@ class SnowFilter {
   std::vector<std::pair<int, int>> spans_;  ///< distinct [lo, hi]
   std::vector<cv::Mat> horizontal_;         ///< per span: the row-wise min/max of the source
   std::vector<uint8_t> pad_;                ///< one source row with its replicated border
-  cv::Mat eroded_;
+  cv::Mat eroded_, opened_, near_dot_;
 };
 
 /// Everything the frontend writes per frame, kept by the caller across frames: rectified

@@ -279,6 +279,8 @@ void visit(V& v, odometry::OdometryParams& p) {
   v.section("snow_filter", [&] {
     v.flag("enabled", p.snow.enabled);
     v.value("kernel_px", p.snow.kernel_px, 0, 31);
+    v.value("keep_dn", p.snow.keep_dn, 0, 255);
+    v.value("dot_dn", p.snow.dot_dn, 1, 255);
   });
   v.section("ripple_notch", [&] {
     v.flag("enabled", p.ripple_notch.enabled);

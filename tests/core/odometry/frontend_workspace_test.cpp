@@ -36,10 +36,10 @@ cv::Mat noiseImage(int w, int h, uint32_t seed) {
   return img;
 }
 
-TEST(SnowFilterReuse, OpeningIsBitIdenticalToOpenCvForEveryDiscAndSize) {
+TEST(SnowFilterReuse, OpeningIsBitIdenticalToOpenCvForEveryDiscAndSizeAndCutsAsTheOneShotFunction) {
   // GIVEN noise images of several sizes (odd, tiny, wide) and discs of 2 to 9 px
   for (const int k : {2, 3, 4, 5, 6, 9}) {
-    SnowFilter filter(SnowFilterParams{true, k});
+    SnowFilter filter(SnowFilterParams{true, k, 0, 30});
     for (const auto& [w, h] : std::vector<std::pair<int, int>>{{64, 48}, {37, 23}, {3, 2}, {1, 1}, {130, 7}}) {
       const cv::Mat img = noiseImage(w, h, static_cast<uint32_t>(k * 1000 + w));
       // WHEN opened by the reused filter, into another Mat and in place
@@ -54,12 +54,23 @@ TEST(SnowFilterReuse, OpeningIsBitIdenticalToOpenCvForEveryDiscAndSize) {
       EXPECT_TRUE(sameMat(inplace, ref)) << "disc " << k << ", " << w << "x" << h;
       // AND the one-shot function is the same opening
       cv::Mat once;
-      suppressSnow(img, once, SnowFilterParams{true, k});
+      suppressSnow(img, once, SnowFilterParams{true, k, 0, 30});
       EXPECT_TRUE(sameMat(once, ref));
+      // AND cut to the dots (the defaults, and keeping 8 DN elsewhere), reused and in place
+      // equal the one-shot function
+      for (const SnowFilterParams cut : {SnowFilterParams{true, k, 255, 30}, SnowFilterParams{true, k, 8, 60}}) {
+        SnowFilter cut_filter(cut);
+        cv::Mat cut_out, cut_inplace = img.clone(), cut_once;
+        cut_filter.apply(img, cut_out);
+        cut_filter.apply(cut_inplace, cut_inplace);
+        suppressSnow(img, cut_once, cut);
+        EXPECT_TRUE(sameMat(cut_out, cut_once)) << "disc " << k << ", keep " << cut.keep_dn;
+        EXPECT_TRUE(sameMat(cut_inplace, cut_once)) << "disc " << k << ", keep " << cut.keep_dn;
+      }
     }
   }
   // AND disabled, it copies
-  SnowFilter off(SnowFilterParams{false, 5});
+  SnowFilter off(SnowFilterParams{false, 5, 0, 30});
   const cv::Mat img = noiseImage(20, 10, 1);
   cv::Mat out;
   off.apply(img, out);
