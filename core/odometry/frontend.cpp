@@ -400,9 +400,7 @@ void Frontend::rectifySide(int cam, const StereoFrame& frame, FrontendWorkspace&
   SnowFilter& snow = cam == 0 ? ws.snow : ws.snow_right;
   rectifier_.rectifyOne(cam, cam == 0 ? frame.left : frame.right, rect);
   if (snow_.enabled) {
-    if (snow.params().enabled != snow_.enabled || snow.params().kernel_px != snow_.kernel_px ||
-        snow.params().keep_dn != snow_.keep_dn || snow.params().dot_dn != snow_.dot_dn)
-      snow = SnowFilter(snow_);
+    if (snow.params() != snow_) snow = SnowFilter(snow_);
     snow.apply(rect, rect);
   }
   if (illumination_.enabled)

@@ -86,14 +86,14 @@ void normalizeIllumination(const cv::Mat& in, cv::Mat& out, const IlluminationPa
 /// larger floor texture and dark structure alone. It flattens the floor's own fine bright
 /// texture too, which costs heading (1 Hz, 300 frames of six surveys: 133 urad per step on
 /// clear water with the opening, 98 with only the dots opened; docs/benchmarks.md, stop 44).
-/// `keep_dn` > 0 opens only the dots: pixels near one more than `dot_dn` above the opening;
-/// the rest keep up to `keep_dn` above it. Off by default until the IMU's weight is revisited
-/// with the sharper images (two IMU-against-vision tests turn round; the benchmark note says how).
+/// So by default only the dots take the opening: pixels near one more than `dot_dn` above it;
+/// the rest keep up to `keep_dn` above it (255: untouched; 0: stop 43's plain opening).
 struct SnowFilterParams {
   bool enabled = true;
   int kernel_px = 5;  ///< disc diameter [px]: bright spots narrower than this are dots
-  int keep_dn = 0;    ///< [DN] a pixel away from dots keeps up to this above the opening (255: untouched; 0: the plain opening)
+  int keep_dn = 255;  ///< [DN] a pixel away from dots keeps up to this above the opening (255: untouched; 0: the plain opening)
   int dot_dn = 40;    ///< [DN] a pixel this far above the opening is a dot: it and its 8 neighbours take the opening
+  bool operator==(const SnowFilterParams&) const = default;
 };
 
 /// Opens `in` into `out` (CV_8UC1) with a `params.kernel_px` disc, cut as the parameters say;

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -75,13 +76,16 @@ struct TurnRun {
   int imu_only = 0;
   int turn_frames = 0;      ///< frames turned by more than 15 deg since the previous one
   int inliers_in_turns = 0; ///< their RANSAC inliers, summed
+  /// Per turning frame, the error of its estimated step against the true one: rotation [rad]
+  /// and translation [m].
+  std::vector<double> turn_rotation_err, turn_translation_err;
 };
 
-/// The true body rotation at `t_ns` (the ground-truth sample at or after it).
-Eigen::Matrix3d trueRotation(const drivers::Dataset& ds, int64_t t_ns) {
+/// The true body pose at `t_ns` (the ground-truth sample at or after it).
+Eigen::Isometry3d truePose(const drivers::Dataset& ds, int64_t t_ns) {
   const auto it = std::lower_bound(ds.ground_truth.begin(), ds.ground_truth.end(), t_ns,
                                    [](const drivers::GroundTruthState& g, int64_t t) { return g.t_ns < t; });
-  return (it == ds.ground_truth.end() ? ds.ground_truth.back() : *it).T_W_B.linear();
+  return (it == ds.ground_truth.end() ? ds.ground_truth.back() : *it).T_W_B;
 }
 
 TurnRun runTurns(const drivers::Dataset& ds, const odometry::OdometryParams& params) {
@@ -94,10 +98,14 @@ TurnRun runTurns(const drivers::Dataset& ds, const odometry::OdometryParams& par
     const OdometryResult& r = run.results[i];
     out.imu_only += r.source == PoseSource::kImuOnly;
     if (i == 0) continue;
-    const Eigen::AngleAxisd turn(trueRotation(ds, run.results[i - 1].t_ns).transpose() * trueRotation(ds, r.t_ns));
-    if (turn.angle() < 15.0 * M_PI / 180.0) continue;
+    const OdometryResult& prev = run.results[i - 1];
+    const Eigen::Isometry3d step_true = truePose(ds, prev.t_ns).inverse() * truePose(ds, r.t_ns);
+    if (Eigen::AngleAxisd(step_true.linear()).angle() < 15.0 * M_PI / 180.0) continue;
     ++out.turn_frames;
     out.inliers_in_turns += r.quality.ransac_inliers;
+    const Eigen::Isometry3d err = step_true.inverse() * (prev.T_W_B.inverse() * r.T_W_B);
+    out.turn_rotation_err.push_back(Eigen::AngleAxisd(err.linear()).angle());
+    out.turn_translation_err.push_back(err.translation().norm());
   }
   return out;
 }
@@ -116,18 +124,30 @@ TEST(TurnPrediction, ImuPredictionTracksPivotTurnsFarBetterThanConstantVelocity)
   // WHEN the local odometry runs with the IMU prediction and with constant velocity
   const TurnRun imu = runTurns(ds, odometry::Prediction::kImu);
   const TurnRun cv = runTurns(ds, odometry::Prediction::kConstantVelocity);
-  std::cout << "[ turns    ] IMU prediction: " << imu.imu_only << " IMU-only frames, mean error "
-            << imu.metrics.mean_error_m << " m, final " << imu.metrics.final_error_m << " m over "
-            << imu.metrics.distance_m << " m\n"
-            << "[ turns    ] constant velocity: " << cv.imu_only << " frames lost, mean error " << cv.metrics.mean_error_m
+  ASSERT_GT(imu.turn_frames, 4);
+  ASSERT_EQ(cv.turn_frames, imu.turn_frames);
+  const double rot_imu = testing_support::median(imu.turn_rotation_err),
+               rot_cv = testing_support::median(cv.turn_rotation_err);
+  const double tr_imu = testing_support::median(imu.turn_translation_err),
+               tr_cv = testing_support::median(cv.turn_translation_err);
+  std::cout << "[ turns    ] IMU prediction: " << imu.imu_only << " IMU-only frames, turning steps' median error "
+            << 1e6 * rot_imu << " urad / " << 1e3 * tr_imu << " mm over " << imu.turn_frames
+            << " frames, mean error " << imu.metrics.mean_error_m << " m, final " << imu.metrics.final_error_m
+            << " m over " << imu.metrics.distance_m << " m\n"
+            << "[ turns    ] constant velocity: " << cv.imu_only << " frames lost, turning steps' median error "
+            << 1e6 * rot_cv << " urad / " << 1e3 * tr_cv << " mm, mean error " << cv.metrics.mean_error_m
             << " m, final " << cv.metrics.final_error_m << " m\n";
   // THEN the IMU-predicted odometry tracks every frame with millimetre errors, while the
   // vision-only one (no IMU window, no gyro prior) keeps tracking, thanks to rotation-invariant
-  // SURF and wide windows, but ends several times worse
+  // SURF and wide windows, but measures each turning step markedly worse. Step by step: the
+  // end error of a 17 s run is one draw (8 untuned seeds 23-53, stop 45, dots-only snow
+  // filter: mean error medians 4.2 against 6.8 mm, 7 of 8 closer with the IMU; turning steps'
+  // median rotation / translation error ratio 0.32-0.64 / 0.33-0.62 on seven, seed 37 a tie at
+  // 1.00 / 0.87; this seed 0.37 / 0.38: 155 against 419 urad, 0.82 against 2.17 mm).
   EXPECT_EQ(imu.imu_only, 0);
   EXPECT_LT(imu.metrics.mean_error_pct, 0.2);
-  EXPECT_GT(cv.metrics.mean_error_m, 2.0 * imu.metrics.mean_error_m);
-  EXPECT_GT(cv.metrics.final_error_m, 2.0 * imu.metrics.final_error_m);
+  EXPECT_LT(rot_imu, 0.75 * rot_cv);
+  EXPECT_LT(tr_imu, 0.75 * tr_cv);
 }
 
 TEST(TurnPrediction, SteeredUprightSurfKeepsMoreInliersThroughPivotTurns) {
