@@ -230,12 +230,11 @@ TEST(LocalOdometry, StereoCompletionComesOnTopOfTheStereoMatchesTheControllerHol
   EXPECT_GT(median(features), 1.3 * completing.features.controller.target_count);
 }
 
-/// Vision's own steps: for every pair of consecutive visual frames, the heading error of the
-/// estimated step against the true one (about the body's z axis), and the frame's inliers and
-/// guided tracks. With the gyro prior and bias learning off, the step is what vision measured.
+/// Vision's own steps: for every pair of consecutive visual frames, the error of the estimated
+/// step against the true one (rotation about the body's z axis, heading, and about its x and y
+/// axes, tilt [rad]; translation [m]), and the frame's inliers and guided tracks. With the gyro
+/// prior and bias learning off, the step is what vision measured.
 struct VisionSteps {
-  /// Per step between vision frames, the error of the estimated step against the true one:
-  /// rotation about the body's z axis, about its x and y axes (tilt) [rad], translation [m].
   std::vector<double> heading_err, tilt_err, translation_err, inliers, guided;
   double mean_error_m = 0;
 };
