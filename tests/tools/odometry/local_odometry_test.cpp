@@ -97,13 +97,10 @@ RunResult runOdometry(const drivers::Dataset& ds, const odometry::OdometryParams
   for (const auto& g : ds.ground_truth) gt.push_back({g.t_ns, g.T_W_B});
   out.frames = static_cast<int>(est.size());
   out.metrics = eval::evaluateTrajectory(gt, est, eval::EvalParams{});
-  // Ground truth at the first and last frame times (the IMU-rate stamps include them).
-  const auto gtAt = [&](int64_t t_ns) {
-    const auto it = std::find_if(gt.begin(), gt.end(), [&](const eval::TimedPose& g) { return g.t_ns >= t_ns; });
-    return it == gt.end() ? gt.back().T_W_B : it->T_W_B;
-  };
-  const Eigen::Matrix3d R_align = gtAt(est.front().t_ns).linear() * est.front().T_W_B.linear().transpose();
-  const Eigen::Matrix3d R_err = (R_align * est.back().T_W_B.linear()).transpose() * gtAt(est.back().t_ns).linear();
+  const Eigen::Matrix3d R_align =
+      testing_support::truthAt(ds, est.front().t_ns).linear() * est.front().T_W_B.linear().transpose();
+  const Eigen::Matrix3d R_err =
+      (R_align * est.back().T_W_B.linear()).transpose() * testing_support::truthAt(ds, est.back().t_ns).linear();
   out.final_attitude_error_rad = Eigen::AngleAxisd(R_err).angle();
   return out;
 }
@@ -243,26 +240,21 @@ VisionSteps visionSteps(const drivers::Dataset& ds, const odometry::OdometryPara
   VisionSteps out;
   std::optional<std::pair<Eigen::Isometry3d, Eigen::Isometry3d>> last;  // estimate, truth
   out.mean_error_m = runOdometry(ds, params, [&](const OdometryResult& r) {
-                       const auto g = std::find_if(ds.ground_truth.begin(), ds.ground_truth.end(),
-                                                   [&](const auto& s) { return s.t_ns >= r.t_ns; });
-                       ASSERT_NE(g, ds.ground_truth.end());
+                       const Eigen::Isometry3d truth = testing_support::truthAt(ds, r.t_ns);
                        if (r.source != PoseSource::kVision) {
                          last.reset();
                          return;
                        }
                        if (last) {
-                         const Eigen::Isometry3d step_est = last->first.inverse() * r.T_W_B;
-                         const Eigen::Isometry3d step_true = last->second.inverse() * g->T_W_B;
-                         const Eigen::Isometry3d err = step_true.inverse() * step_est;
-                         const Eigen::AngleAxisd e(err.linear());
-                         const Eigen::Vector3d w = e.angle() * e.axis();
-                         out.heading_err.push_back(std::abs(w.z()));
-                         out.tilt_err.push_back(std::hypot(w.x(), w.y()));
-                         out.translation_err.push_back(err.translation().norm());
+                         const testing_support::StepError e =
+                             testing_support::stepError(last->first, r.T_W_B, last->second, truth);
+                         out.heading_err.push_back(e.heading_rad);
+                         out.tilt_err.push_back(e.tilt_rad);
+                         out.translation_err.push_back(e.translation_m);
                          out.inliers.push_back(r.quality.ransac_inliers);
                          out.guided.push_back(r.quality.guided_tracks);
                        }
-                       last = std::make_pair(r.T_W_B, g->T_W_B);
+                       last = std::make_pair(r.T_W_B, truth);
                      }).metrics.mean_error_m;
   return out;
 }

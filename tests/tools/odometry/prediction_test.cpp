@@ -81,13 +81,6 @@ struct TurnRun {
   std::vector<double> turn_rotation_err, turn_translation_err;
 };
 
-/// The true body pose at `t_ns` (the ground-truth sample at or after it).
-Eigen::Isometry3d truePose(const drivers::Dataset& ds, int64_t t_ns) {
-  const auto it = std::lower_bound(ds.ground_truth.begin(), ds.ground_truth.end(), t_ns,
-                                   [](const drivers::GroundTruthState& g, int64_t t) { return g.t_ns < t; });
-  return (it == ds.ground_truth.end() ? ds.ground_truth.back() : *it).T_W_B;
-}
-
 TurnRun runTurns(const drivers::Dataset& ds, const odometry::OdometryParams& params) {
   const tools::SequenceRun run = tools::runSequence(ds, params);
   TurnRun out;
@@ -99,13 +92,14 @@ TurnRun runTurns(const drivers::Dataset& ds, const odometry::OdometryParams& par
     out.imu_only += r.source == PoseSource::kImuOnly;
     if (i == 0) continue;
     const OdometryResult& prev = run.results[i - 1];
-    const Eigen::Isometry3d step_true = truePose(ds, prev.t_ns).inverse() * truePose(ds, r.t_ns);
-    if (Eigen::AngleAxisd(step_true.linear()).angle() < 15.0 * M_PI / 180.0) continue;
+    const Eigen::Isometry3d true_prev = testing_support::truthAt(ds, prev.t_ns),
+                            true_curr = testing_support::truthAt(ds, r.t_ns);
+    if (Eigen::AngleAxisd((true_prev.inverse() * true_curr).linear()).angle() < 15.0 * M_PI / 180.0) continue;
     ++out.turn_frames;
     out.inliers_in_turns += r.quality.ransac_inliers;
-    const Eigen::Isometry3d err = step_true.inverse() * (prev.T_W_B.inverse() * r.T_W_B);
-    out.turn_rotation_err.push_back(Eigen::AngleAxisd(err.linear()).angle());
-    out.turn_translation_err.push_back(err.translation().norm());
+    const testing_support::StepError e = testing_support::stepError(prev.T_W_B, r.T_W_B, true_prev, true_curr);
+    out.turn_rotation_err.push_back(e.rotation_rad);
+    out.turn_translation_err.push_back(e.translation_m);
   }
   return out;
 }

@@ -2,6 +2,7 @@
 // Inter-frame matching on rendered frames with ground truth (issue 4, "the IMU prediction
 // measurably helps"): shared by the pruning test and tests/bench/pruning_bench.cpp.
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdlib>
 #include <filesystem>
@@ -102,6 +103,29 @@ inline simulate::SimConfig cruiseConfig(uint32_t seed, int frames) {
   c.trajectory.still_s = 0.5;
   c.trajectory.accel_s = 1.0;
   return c;
+}
+
+/// The true body pose at `t_ns`: the first ground-truth sample at or after it (the simulator
+/// writes them at IMU rate, frame times included), or the last one.
+inline Eigen::Isometry3d truthAt(const drivers::Dataset& ds, int64_t t_ns) {
+  const auto it = std::lower_bound(ds.ground_truth.begin(), ds.ground_truth.end(), t_ns,
+                                   [](const drivers::GroundTruthState& g, int64_t t) { return g.t_ns < t; });
+  return (it == ds.ground_truth.end() ? ds.ground_truth.back() : *it).T_W_B;
+}
+
+/// The error of an estimated step (body pose `est_prev` to `est_curr`) against the true one:
+/// rotation as a whole, about the body's z axis (heading) and about its x and y axes (tilt)
+/// [rad], and translation [m].
+struct StepError {
+  double rotation_rad = 0, heading_rad = 0, tilt_rad = 0, translation_m = 0;
+};
+
+inline StepError stepError(const Eigen::Isometry3d& est_prev, const Eigen::Isometry3d& est_curr,
+                           const Eigen::Isometry3d& true_prev, const Eigen::Isometry3d& true_curr) {
+  const Eigen::Isometry3d err = (true_prev.inverse() * true_curr).inverse() * (est_prev.inverse() * est_curr);
+  const Eigen::AngleAxisd e(err.linear());
+  const Eigen::Vector3d w = e.angle() * e.axis();
+  return {e.angle(), std::abs(w.z()), std::hypot(w.x(), w.y()), err.translation().norm()};
 }
 
 /// Median of a copy (the upper one for an even count).
