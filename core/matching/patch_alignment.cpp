@@ -109,16 +109,38 @@ PatchAlignment alignPatch(const PatchTemplate& tmpl, const cv::Mat& img, const E
   // the template shifted by delta (in template pixels), so the template's centre lies at
   // uv - A delta. The normalisation's own derivative is left out (it changes slowly with a
   // sub-pixel shift), as in the usual ZNCC Lucas-Kanade.
+  // With params.huber > 0 the Gauss-Newton step is iteratively reweighted: the Hessian is
+  // then the weighted one, rebuilt from the template's gradients each iteration.
+  const float c = static_cast<float>(params.huber);
   Eigen::Vector2f uv = uv0;
   for (int it = 0; it < params.max_iterations; ++it) {
     if (!sample(uv)) return out;
     Eigen::Vector2f b = Eigen::Vector2f::Zero();
-    for (int k = 0; k < n; ++k) {
-      const float res = cur[k] - tmpl.values[k];
-      b.x() += tmpl.grad_x[k] * res;
-      b.y() += tmpl.grad_y[k] * res;
+    Eigen::Vector2f delta;
+    if (c > 0) {
+      float hxx = 0, hxy = 0, hyy = 0;
+      for (int k = 0; k < n; ++k) {
+        const float res = cur[k] - tmpl.values[k];
+        const float a = std::abs(res);
+        const float w = a <= c ? 1.f : c / a;
+        const float gx = w * tmpl.grad_x[k], gy = w * tmpl.grad_y[k];
+        b.x() += gx * res;
+        b.y() += gy * res;
+        hxx += gx * tmpl.grad_x[k];
+        hxy += gx * tmpl.grad_y[k];
+        hyy += gy * tmpl.grad_y[k];
+      }
+      const float det = hxx * hyy - hxy * hxy;
+      if (!(det > 0)) return out;
+      delta = Eigen::Vector2f(hyy * b.x() - hxy * b.y(), hxx * b.y() - hxy * b.x()) / det;
+    } else {
+      for (int k = 0; k < n; ++k) {
+        const float res = cur[k] - tmpl.values[k];
+        b.x() += tmpl.grad_x[k] * res;
+        b.y() += tmpl.grad_y[k] * res;
+      }
+      delta = tmpl.hessian_inverse * b;
     }
-    const Eigen::Vector2f delta = tmpl.hessian_inverse * b;
     if (!delta.allFinite()) return out;
     const Eigen::Vector2f step = A * delta;
     uv -= step;

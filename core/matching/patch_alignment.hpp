@@ -24,6 +24,11 @@ struct PatchAlignParams {
   /// det / trace^2 of the gradients' 2x2 moment (about the smaller over the larger
   /// eigenvalue): below it the patch is an edge, sliding along itself.
   double min_eigen_ratio = 0.05;
+  /// Huber width on the per-pixel residual of the normalised patches (unit variance): pixels
+  /// further off weigh c / |r|. A marine-snow dot (or its filled-in spot) in one patch and
+  /// not the other, a glint, an edge of the lit area pull a least-squares shift towards
+  /// them; weighted down, the floor around them sets it. 0: plain least squares.
+  double huber = 0.5;
 };
 
 struct PatchAlignment {

@@ -275,6 +275,7 @@ void visit(V& v, odometry::OdometryParams& p) {
     v.value("min_zncc", p.patch.min_zncc, -1, 1);
     v.value("min_stddev_dn", p.patch.min_stddev_dn, 0, 255);
     v.value("min_eigen_ratio", p.patch.min_eigen_ratio, 0, 0.25);
+    v.value("huber", p.patch.huber, 0, 100);
   });
   v.section("snow_filter", [&] {
     v.flag("enabled", p.snow.enabled);
@@ -315,6 +316,7 @@ void visit(V& v, odometry::OdometryParams& p) {
       v.value("min_separation_px", p.stereo.completion.min_separation_px, 0, 100);
       v.value("half_size_px", p.stereo.completion.patch.half_size_px, 1, 15);
       v.value("min_zncc", p.stereo.completion.patch.min_zncc, -1, 1);
+      v.value("huber", p.stereo.completion.patch.huber, 0, 100);
     });
   });
   v.section("temporal", [&] {

@@ -63,6 +63,66 @@ TEST(PatchAlignment, RecoversASubPixelShiftUnderGainOffsetAndNoise) {
   EXPECT_GT(start_total / 20, 0.3);
 }
 
+/// `clean` with bright blurred dots as marine snow leaves them after its filter (the brightest
+/// are filled in, the dimmer ones stay): ~1 per 15 x 15 patch, sigma 0.8 px, +60 grey levels.
+cv::Mat withSnowDots(const cv::Mat& clean, std::mt19937& rng) {
+  cv::Mat f;
+  clean.convertTo(f, CV_32F);
+  std::uniform_real_distribution<float> where(0.f, static_cast<float>(clean.cols - 1));
+  for (std::size_t k = 0; k < clean.total() / 225; ++k) {
+    const float x = where(rng), y = where(rng);
+    for (int v = std::max(0, int(y) - 3); v <= std::min(clean.rows - 1, int(y) + 3); ++v)
+      for (int u = std::max(0, int(x) - 3); u <= std::min(clean.cols - 1, int(x) + 3); ++u)
+        f.at<float>(v, u) += 60.f * std::exp(-((u - x) * (u - x) + (v - y) * (v - y)) / (2 * 0.8f * 0.8f));
+  }
+  cv::Mat out;
+  f.convertTo(out, CV_8U);
+  return out;
+}
+
+TEST(PatchAlignment, TheHuberWeightsKeepSnowDotsInOnePatchFromPullingTheShift) {
+  // GIVEN three textured images moved by a sub-pixel shift, each also with snow dots
+  PatchAlignParams least_squares;
+  least_squares.huber = 0;
+  least_squares.min_zncc = 0;  // compare the same points
+  PatchAlignParams huber = least_squares;
+  huber.huber = PatchAlignParams{}.huber;
+  ASSERT_GT(huber.huber, 0);
+  const Eigen::Vector2f t(1.23f, 0.61f);
+  std::vector<double> pull_ls, pull_huber;  // how far the dots moved each alignment [px]
+  for (int seed = 0; seed < 3; ++seed) {
+    const cv::Mat ref = texture(40 + seed);
+    const cv::Mat clean = moved(ref, Eigen::Matrix2f::Identity(), t, 1.0, 0, 1.0, 50 + seed);
+    std::mt19937 rng(static_cast<unsigned>(60 + seed));
+    const cv::Mat snowy = withSnowDots(clean, rng);
+    // WHEN 200 points of each are aligned with and without the dots, by least squares and
+    // with the Huber weights
+    std::uniform_real_distribution<float> u(30.f, 210.f);
+    for (int k = 0; k < 200; ++k) {
+      const Eigen::Vector2f p(u(rng), u(rng)), truth = p + t;
+      const PatchAlignment a0 = alignPatch(ref, p, clean, truth, Eigen::Matrix2f::Identity(), least_squares);
+      const PatchAlignment a1 = alignPatch(ref, p, snowy, truth, Eigen::Matrix2f::Identity(), least_squares);
+      const PatchAlignment b0 = alignPatch(ref, p, clean, truth, Eigen::Matrix2f::Identity(), huber);
+      const PatchAlignment b1 = alignPatch(ref, p, snowy, truth, Eigen::Matrix2f::Identity(), huber);
+      if (!a0.ok || !a1.ok || !b0.ok || !b1.ok) continue;
+      pull_ls.push_back((a1.uv - a0.uv).norm());
+      pull_huber.push_back((b1.uv - b0.uv).norm());
+    }
+  }
+  // THEN the dots move the weighted alignments less (median and upper decile; 0.05 and
+  // 0.15 px by least squares, the size of the floor's own step-to-step misalignment)
+  ASSERT_GT(pull_ls.size(), 450u);
+  std::sort(pull_ls.begin(), pull_ls.end());
+  std::sort(pull_huber.begin(), pull_huber.end());
+  const std::size_t p90 = pull_ls.size() * 9 / 10, mid = pull_ls.size() / 2;
+  RecordProperty("pull_median_ls_px", std::to_string(pull_ls[mid]));
+  RecordProperty("pull_median_huber_px", std::to_string(pull_huber[mid]));
+  RecordProperty("pull_p90_ls_px", std::to_string(pull_ls[p90]));
+  RecordProperty("pull_p90_huber_px", std::to_string(pull_huber[p90]));
+  EXPECT_LT(pull_huber[mid], 0.85 * pull_ls[mid]) << pull_huber[mid] << " vs " << pull_ls[mid];
+  EXPECT_LT(pull_huber[p90], 0.85 * pull_ls[p90]) << pull_huber[p90] << " vs " << pull_ls[p90];
+}
+
 TEST(PatchAlignment, FollowsTheMotionsInPlaneTurnAndScale) {
   // GIVEN the image turned by 6 deg and scaled by 1.03 about the origin, then shifted
   const cv::Mat ref = texture(4);
