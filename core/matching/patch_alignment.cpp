@@ -112,20 +112,24 @@ PatchAlignment alignPatch(const PatchTemplate& tmpl, const cv::Mat& img, const E
   // With params.huber > 0 the Gauss-Newton step is iteratively reweighted: the Hessian is
   // then the weighted one, rebuilt from the template's gradients each iteration.
   const float c = static_cast<float>(params.huber);
+  float residual[PatchTemplate::kMaxSamples], weight[PatchTemplate::kMaxSamples];
   Eigen::Vector2f uv = uv0;
   for (int it = 0; it < params.max_iterations; ++it) {
     if (!sample(uv)) return out;
     Eigen::Vector2f b = Eigen::Vector2f::Zero();
     Eigen::Vector2f delta;
     if (c > 0) {
+      // Residuals and weights first, in a loop without a reduction, which the compiler
+      // vectorises (the division is most of the weights' cost); then the sums.
+      for (int k = 0; k < n; ++k) {
+        residual[k] = cur[k] - tmpl.values[k];
+        weight[k] = c / std::max(std::abs(residual[k]), c);
+      }
       float hxx = 0, hxy = 0, hyy = 0;
       for (int k = 0; k < n; ++k) {
-        const float res = cur[k] - tmpl.values[k];
-        const float a = std::abs(res);
-        const float w = a <= c ? 1.f : c / a;
-        const float gx = w * tmpl.grad_x[k], gy = w * tmpl.grad_y[k];
-        b.x() += gx * res;
-        b.y() += gy * res;
+        const float gx = weight[k] * tmpl.grad_x[k], gy = weight[k] * tmpl.grad_y[k];
+        b.x() += gx * residual[k];
+        b.y() += gy * residual[k];
         hxx += gx * tmpl.grad_x[k];
         hxy += gx * tmpl.grad_y[k];
         hyy += gy * tmpl.grad_y[k];

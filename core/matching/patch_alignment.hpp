@@ -28,7 +28,7 @@ struct PatchAlignParams {
   /// further off weigh c / |r|. A marine-snow dot (or its filled-in spot) in one patch and
   /// not the other, a glint, an edge of the lit area pull a least-squares shift towards
   /// them; weighted down, the floor around them sets it. 0: plain least squares.
-  double huber = 0.5;
+  double huber = 0.3;
 };
 
 struct PatchAlignment {

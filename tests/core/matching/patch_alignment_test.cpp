@@ -119,8 +119,8 @@ TEST(PatchAlignment, TheHuberWeightsKeepSnowDotsInOnePatchFromPullingTheShift) {
   RecordProperty("pull_median_huber_px", std::to_string(pull_huber[mid]));
   RecordProperty("pull_p90_ls_px", std::to_string(pull_ls[p90]));
   RecordProperty("pull_p90_huber_px", std::to_string(pull_huber[p90]));
-  EXPECT_LT(pull_huber[mid], 0.85 * pull_ls[mid]) << pull_huber[mid] << " vs " << pull_ls[mid];
-  EXPECT_LT(pull_huber[p90], 0.85 * pull_ls[p90]) << pull_huber[p90] << " vs " << pull_ls[p90];
+  EXPECT_LT(pull_huber[mid], 0.75 * pull_ls[mid]) << pull_huber[mid] << " vs " << pull_ls[mid];
+  EXPECT_LT(pull_huber[p90], 0.75 * pull_ls[p90]) << pull_huber[p90] << " vs " << pull_ls[p90];
 }
 
 TEST(PatchAlignment, FollowsTheMotionsInPlaneTurnAndScale) {
