@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
-#include <cstdlib>
 #include <filesystem>
 #include <stdexcept>
 #include <string>
@@ -20,6 +19,14 @@
 #include "tools/simulate/sim_config.hpp"
 
 namespace seavio::testing_support {
+
+/// The true state at `t_ns`: the first ground-truth sample at or after it (the simulator writes
+/// them at IMU rate, frame times included), or the last one.
+inline drivers::GroundTruthState groundTruthAt(const drivers::Dataset& ds, int64_t t_ns) {
+  const auto it = std::lower_bound(ds.ground_truth.begin(), ds.ground_truth.end(), t_ns,
+                                   [](const drivers::GroundTruthState& g, int64_t t) { return g.t_ns < t; });
+  return it == ds.ground_truth.end() ? ds.ground_truth.back() : *it;
+}
 
 /// One pair of frames: features of both, the true motion, and the IMU's prediction of it.
 struct MatchPair {
@@ -63,14 +70,7 @@ struct MatchingScene {
     return out;
   }
 
-  /// Ground-truth state at `t_ns` (nearest sample; the simulator writes them at IMU rate).
-  drivers::GroundTruthState groundTruthAt(int64_t t_ns) const {
-    const auto& gt = dataset.ground_truth;
-    std::size_t best = 0;
-    for (std::size_t i = 1; i < gt.size(); ++i)
-      if (std::llabs(gt[i].t_ns - t_ns) < std::llabs(gt[best].t_ns - t_ns)) best = i;
-    return gt[best];
-  }
+  drivers::GroundTruthState groundTruthAt(int64_t t_ns) const { return testing_support::groundTruthAt(dataset, t_ns); }
 };
 
 /// Renders `config` into `dir` and extracts every frame's features with the odometry front end
@@ -105,13 +105,8 @@ inline simulate::SimConfig cruiseConfig(uint32_t seed, int frames) {
   return c;
 }
 
-/// The true body pose at `t_ns`: the first ground-truth sample at or after it (the simulator
-/// writes them at IMU rate, frame times included), or the last one.
-inline Eigen::Isometry3d truthAt(const drivers::Dataset& ds, int64_t t_ns) {
-  const auto it = std::lower_bound(ds.ground_truth.begin(), ds.ground_truth.end(), t_ns,
-                                   [](const drivers::GroundTruthState& g, int64_t t) { return g.t_ns < t; });
-  return (it == ds.ground_truth.end() ? ds.ground_truth.back() : *it).T_W_B;
-}
+/// The true body pose at `t_ns`.
+inline Eigen::Isometry3d truthAt(const drivers::Dataset& ds, int64_t t_ns) { return groundTruthAt(ds, t_ns).T_W_B; }
 
 /// The error of an estimated step (body pose `est_prev` to `est_curr`) against the true one:
 /// rotation as a whole, about the body's z axis (heading) and about its x and y axes (tilt)
