@@ -1,6 +1,7 @@
 // `seavio bench`: the paper's Tables I and II end to end (issue 5), per-stage timing against
-// the issue 8 goals, and how the per-frame time scales with survey length and feature count,
-// in process.
+// the issue 8 goals, how the per-frame time scales with survey length and feature count, and
+// what vision-loss stretches of rendered surveys cost (issue 9), in process.
+#include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <memory>
@@ -9,8 +10,12 @@
 
 #include <spdlog/spdlog.h>
 
+#include "drivers/config/odometry_config.hpp"
+#include "drivers/dataset/dataset.hpp"
 #include "tools/bench_report.hpp"
+#include "tools/coasting_report.hpp"
 #include "tools/command_registry.hpp"
+#include "tools/sequence_runner.hpp"
 
 namespace seavio::tools {
 namespace cmd_bench {
@@ -23,6 +28,12 @@ struct BenchCliOptions {
   int64_t scaling_seed = 3;
   int64_t paper_seed = 1;
   int64_t stage_seed = 3;
+  struct {
+    std::vector<std::string> datasets;
+    std::string config, mode = "local", out_dir = "bench-coasting";
+    std::vector<double> at_s = {0.5, 1.0, 1.5, 2.0, 3.0, 5.0};
+    double after_s = 2.0;
+  } coasting;
 };
 
 uint32_t checkedSeed(int64_t seed) {
@@ -67,6 +78,34 @@ void runScaling(BenchCliOptions& o) {
   if (o.scaling.sweep_frames == 0) os << "(survey only)\n";
   printScaling(os, r);
   emit(os.str(), o.scaling.out_dir + "/scaling.txt");
+}
+
+/// Every stretch of every dataset: the odometry runs over it through `seavio run`'s frame loop
+/// and each stretch's figures are printed (docs/reliability.md, "Coasting through vision loss").
+/// A dataset without stretches is an error: there would be nothing to report.
+void runCoasting(BenchCliOptions& o) {
+  const auto& c = o.coasting;
+  odometry::OdometryParams params = config::loadOdometryParamsFile(c.config);
+  if (c.mode == "local") {
+    params.mode = odometry::Mode::kLocal;
+  } else if (c.mode == "global") {
+    params.mode = odometry::Mode::kGlobal;
+  } else {
+    throw std::invalid_argument("--mode: expected local or global, got '" + c.mode + "'");
+  }
+  std::ostringstream os;
+  os << "seavio bench coasting: mode " << c.mode << (c.config.empty() ? "" : ", config " + c.config) << "\n";
+  for (const std::string& dir : c.datasets) {
+    const std::vector<LossStretch> stretches = readLossStretches(dir);
+    if (stretches.empty()) throw std::runtime_error(dir + "/mav0/vision_loss.csv: no vision-loss stretch");
+    const drivers::Dataset ds = drivers::loadEuroc(dir);
+    if (ds.ground_truth.empty()) throw std::runtime_error(dir + ": no ground truth to measure the coasting error against");
+    const SequenceRun run = runSequence(ds, params);
+    const std::string name = std::filesystem::path(dir).filename().string();
+    for (const LossStretch& s : stretches) os << formatCoastFigures(name, s, coastFigures(ds, run.results, s, c.at_s, c.after_s)) << "\n";
+  }
+  std::filesystem::create_directories(c.out_dir);
+  emit(os.str(), c.out_dir + "/coasting.txt");
 }
 
 void guarded(const char* what, const std::function<void()>& fn) {
@@ -123,6 +162,18 @@ const RegisterCommand kRegister("bench", [](CLI::App& app) {
   scaling->add_flag("--reuse", o->scaling.reuse, "reuse the sweep sequence already rendered in --out");
   scaling->add_option("--config", o->scaling.config, "tuning YAML (default: built-in defaults)");
   scaling->callback([o] { guarded("scaling", [o] { runScaling(*o); }); });
+
+  CLI::App* coasting = cmd->add_subcommand(
+      "coasting", "Coasting through the vision-loss stretches of rendered surveys: flag, error, covariance, recovery");
+  coasting->add_option("--dataset", o->coasting.datasets,
+                       "survey with vision-loss stretches (`seavio simulate ... --vision-loss`); repeatable")
+      ->required();
+  coasting->add_option("--config", o->coasting.config, "tuning YAML (default: built-in defaults)");
+  coasting->add_option("--mode", o->coasting.mode, "local or global");
+  coasting->add_option("--at", o->coasting.at_s, "seconds into each stretch to report the error at")->delimiter(',');
+  coasting->add_option("--after", o->coasting.after_s, "seconds after each stretch to report the error at");
+  coasting->add_option("--out", o->coasting.out_dir, "folder for the table (coasting.txt)");
+  coasting->callback([o] { guarded("coasting", [o] { runCoasting(*o); }); });
 });
 
 }  // namespace

@@ -232,6 +232,11 @@ void visit(V& v, odometry::OdometryParams& p) {
     v.value("gyro_bias_random_walk_rad_s_sqrt_s", p.accel_bias.gyro_bias_random_walk_rad_s_sqrt_s, 0, 1);
     v.flag("start_frame", p.accel_bias_start_frame);
   });
+  v.section("coasting_handover", [&] {
+    v.value("velocity_window_s", p.coasting_velocity_window_s, 0, 1000);
+    v.value("velocity_min_fixes", p.coasting_velocity_min_fixes, 2, 10000);
+    v.value("acceleration_min_fixes", p.coasting_acceleration_min_fixes, 0, 10000);
+  });
   v.section("coasting_leak", [&] {
     v.flag("enabled", p.coasting_leak_correction);
     v.value("window_fixes", p.coasting_leak.window_fixes, 1, imu::CoastingLeak::kCapacity);

@@ -89,5 +89,26 @@ TEST_F(Cli, BadInputExitsNonZeroWithAMessage) {
   EXPECT_NE(sh(kSeavio + " run --dataset /tmp --mode sideways --out " + (dir_ / "x.txt").string()), 0);
 }
 
+// `seavio bench coasting` over a survey with a blackout: GIVEN 6 s at 10 Hz with vision lost from
+// 3 to 4 s, WHEN the bench runs the odometry over it, THEN its table has the stretch with all
+// ten frames flagged and vision back; AND a survey without stretches is refused, named.
+TEST_F(Cli, BenchCoastingReportsEachLossStretch) {
+  const fs::path data = dir_ / "outage", plain = dir_ / "plain", out = dir_ / "bench";
+  ASSERT_EQ(sh(kSeavio + " simulate short-plain --frames 60 --seed 79 --width 320 --vision-loss blackout:3:1 --force --out " +
+               data.string()),
+            0)
+      << slurp(logPath());
+  ASSERT_EQ(sh(kSeavio + " bench coasting --dataset " + data.string() + " --out " + out.string()), 0) << slurp(logPath());
+  const std::string table = slurp(out / "coasting.txt");
+  EXPECT_NE(table.find("blackout"), std::string::npos) << table;
+  EXPECT_NE(table.find("flagged 10/10"), std::string::npos) << table;
+  EXPECT_EQ(table.find("vision back after -1"), std::string::npos) << table;
+
+  ASSERT_EQ(sh(kSeavio + " simulate short-plain --frames 5 --seed 79 --width 160 --force --out " + plain.string()), 0)
+      << slurp(logPath());
+  EXPECT_NE(sh(kSeavio + " bench coasting --dataset " + plain.string() + " --out " + out.string()), 0);
+  EXPECT_NE(slurp(logPath()).find(plain.string() + "/mav0/vision_loss.csv"), std::string::npos) << slurp(logPath());
+}
+
 }  // namespace
 }  // namespace seavio

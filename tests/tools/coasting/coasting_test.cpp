@@ -3,20 +3,18 @@
 // every frame inside a stretch is flagged IMU-only (FLAG_IMU_ONLY on LCM), its position
 // covariance grows frame by frame, nothing is NaN, vision takes over again right after, and
 // the error the stretch added stays bounded. The figures are printed; the same measurement
-// over any rendered dataset (e.g. `seavio simulate short-outage`) is CoastingReport below.
+// over any rendered dataset (e.g. `seavio simulate short-outage`) is `seavio bench coasting`.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
+#include <unistd.h>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
 
-#include "coasting_metrics.hpp"
 #include "drivers/lcm/lcm_convert.hpp"
+#include "tools/coasting_report.hpp"
 #include "tools/sequence_runner.hpp"
 #include "tools/simulate/imu_simulator.hpp"
 #include "tools/simulate/sequence_writer.hpp"
@@ -27,40 +25,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-/// One loss stretch of a dataset, on its clock.
-struct Stretch {
-  std::string kind;
-  int64_t from_ns, to_ns;
-};
-
-/// mav0/vision_loss.csv as written by the simulator ("#kind,start [ns],end [ns]").
-std::vector<Stretch> readStretches(const std::string& dir) {
-  std::vector<Stretch> out;
-  std::ifstream in(fs::path(dir) / "mav0" / "vision_loss.csv");
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::stringstream ss(line);
-    std::string kind, a, b;
-    if (std::getline(ss, kind, ',') && std::getline(ss, a, ',') && std::getline(ss, b, ','))
-      out.push_back({kind, std::stoll(a), std::stoll(b)});
-  }
-  return out;
-}
-
 const std::vector<double> kAt = {0.5, 1.0, 1.5, 2.0, 3.0, 5.0};
-
-void printFigures(const std::string& what, const Stretch& s, const test::CoastFigures& f) {
-  std::printf("%-28s %-11s %5.1f s: flagged %d/%d, sigma %.3f -> %.3f m, hand-over velocity error %.3f m/s, tilt "
-              "error %.1f mrad, error",
-              what.c_str(), s.kind.c_str(), static_cast<double>(s.to_ns - s.from_ns) * 1e-9, f.flagged_in_loss,
-              f.frames_in_loss, f.sigma_start_m, f.sigma_end_m, f.handover_velocity_error_m_s,
-              1e3 * f.handover_tilt_error_rad);
-  for (std::size_t i = 0; i < f.error_m.size(); ++i)
-    std::printf(" @%.1fs %.3f (3sigma %.3f)", f.error_at_s[i], f.error_m[i], 3 * f.sigma_added_m[i]);
-  std::printf(" end %.3f m (%.2f m travelled); vision back after %.2f s (jump %.3f m), error 2 s later %.3f m\n",
-              f.error_end_m, f.distance_m, f.recovery_s, f.recovery_jump_m, f.error_after_m);
-}
 
 TEST(Coasting, BlackoutAndTurbidityAreFlaggedWithGrowingCovarianceAndVisionRecovers) {
   // GIVEN 13 s at 10 Hz and 1 m/s: a 2 s blackout at 4 s and a 2 s turbidity stretch at 8.5 s
@@ -76,17 +41,17 @@ TEST(Coasting, BlackoutAndTurbidityAreFlaggedWithGrowingCovarianceAndVisionRecov
   const fs::path dir = fs::temp_directory_path() / ("seavio_coasting_" + std::to_string(getpid()));
   simulate::writeSequence(c, dir.string(), true);
   const drivers::Dataset ds = drivers::loadEuroc(dir.string());
-  const std::vector<Stretch> stretches = readStretches(dir.string());
+  const std::vector<tools::LossStretch> stretches = tools::readLossStretches(dir.string());
   ASSERT_EQ(stretches.size(), 2u);
 
   // WHEN the odometry runs over it
   const tools::SequenceRun run = tools::runSequence(ds, odometry::OdometryParams{});
   ASSERT_EQ(run.results.size(), ds.frames.size());
 
-  for (const Stretch& s : stretches) {
+  for (const tools::LossStretch& s : stretches) {
     SCOPED_TRACE(s.kind);
-    const test::CoastFigures f = test::coastFigures(ds, run.results, s.from_ns, s.to_ns, kAt, 2.0);
-    printFigures("test survey (seed 31)", s, f);
+    const tools::CoastFigures f = tools::coastFigures(ds, run.results, s, kAt, 2.0);
+    std::printf("%s\n", tools::formatCoastFigures("test survey (seed 31)", s, f).c_str());
     // THEN every frame inside is flagged (the first may still hold on the previous frame's
     // features at the stretch's edge), on LCM too
     ASSERT_GE(f.frames_in_loss, 19);
@@ -116,7 +81,7 @@ TEST(Coasting, BlackoutAndTurbidityAreFlaggedWithGrowingCovarianceAndVisionRecov
   int imu_only_outside = 0;
   for (const OdometryResult& r : run.results) {
     bool inside = false;
-    for (const Stretch& s : stretches) inside = inside || (r.t_ns >= s.from_ns && r.t_ns < s.to_ns + 500'000'000);
+    for (const tools::LossStretch& s : stretches) inside = inside || (r.t_ns >= s.from_ns && r.t_ns < s.to_ns + 500'000'000);
     imu_only_outside += !inside && r.source == PoseSource::kImuOnly;
   }
   EXPECT_EQ(imu_only_outside, 0);
@@ -159,12 +124,12 @@ TEST(CoastingConsistency, ErrorInsideThreeSigmaAtHalfOneTwoAndFiveSecondsForEver
     const drivers::Dataset ds = drivers::loadEuroc(dir.string());
     const tools::SequenceRun run = tools::runSequence(ds, odometry::OdometryParams{});
     ASSERT_EQ(run.results.size(), ds.frames.size());
-    const std::vector<Stretch> stretches = readStretches(dir.string());
+    const std::vector<tools::LossStretch> stretches = tools::readLossStretches(dir.string());
     ASSERT_EQ(stretches.size(), 3u);
-    for (const Stretch& s : stretches) {
+    for (const tools::LossStretch& s : stretches) {
       SCOPED_TRACE(s.kind + " seed " + std::to_string(seed));
-      const test::CoastFigures f = test::coastFigures(ds, run.results, s.from_ns, s.to_ns, at, 2.0);
-      printFigures("consistency (seed " + std::to_string(seed) + ")", s, f);
+      const tools::CoastFigures f = tools::coastFigures(ds, run.results, s, at, 2.0);
+      std::printf("%s\n", tools::formatCoastFigures("consistency (seed " + std::to_string(seed) + ")", s, f).c_str());
       ASSERT_EQ(f.error_m.size(), at.size());
       for (std::size_t i = 0; i < at.size(); ++i) {
         ++checked;
@@ -200,35 +165,6 @@ TEST(CoastingConsistency, ErrorInsideThreeSigmaAtHalfOneTwoAndFiveSecondsForEver
   // Stop 24's ripple notch (core/odometry/ripple_notch.hpp) shrank the errors before the loss
   // once more (tilt at the hand-over 2.8-6.5 mrad): 9.7 -> 10.4, bound 12.
   EXPECT_LE(median_looseness, 12.0);
-}
-
-// The measurement behind docs/reliability.md over full rendered surveys: set
-// SEAVIO_COASTING_DATASETS to a ':'-separated list of simulator outputs with vision-loss
-// stretches (e.g. `seavio simulate short-outage --out DIR`). Skipped when unset.
-TEST(CoastingReport, FiguresForTheDatasetsInSeavioCoastingDatasets) {
-  const char* env = std::getenv("SEAVIO_COASTING_DATASETS");
-  if (!env || !*env) GTEST_SKIP() << "set SEAVIO_COASTING_DATASETS=DIR[:DIR...] to measure rendered surveys";
-  std::stringstream list(env);
-  std::string dir;
-  while (std::getline(list, dir, ':')) {
-    const std::vector<Stretch> stretches = readStretches(dir);
-    ASSERT_FALSE(stretches.empty()) << dir << "/mav0/vision_loss.csv has no stretch";
-    const drivers::Dataset ds = drivers::loadEuroc(dir);
-    odometry::OdometryParams params;
-    // SEAVIO_COASTING_WINDOW_S=0: the hand-over of the last frame's velocity, for comparison.
-    if (const char* w = std::getenv("SEAVIO_COASTING_WINDOW_S"); w && *w)
-      params.coasting_velocity_window_s = std::stod(w);
-    // SEAVIO_COASTING_ACCEL_FIXES=0: a straight-line fit only (no acceleration correction).
-    if (const char* w = std::getenv("SEAVIO_COASTING_ACCEL_FIXES"); w && *w)
-      params.coasting_acceleration_min_fixes = std::stoi(w);
-    const tools::SequenceRun run = tools::runSequence(ds, params);
-    for (const Stretch& s : stretches) {
-      const test::CoastFigures f = test::coastFigures(ds, run.results, s.from_ns, s.to_ns, kAt, 2.0);
-      printFigures(fs::path(dir).filename().string(), s, f);
-      EXPECT_TRUE(f.finite);
-      EXPECT_GE(f.flagged_in_loss, f.frames_in_loss - 1);
-    }
-  }
 }
 
 }  // namespace

@@ -1,48 +1,21 @@
-#pragma once
-// Coasting figures of one vision-loss stretch (issue 9): how the position error, its flag and
-// its covariance grow while the odometry dead-reckons on the IMU, and how it recovers. Errors
-// are relative to the last frame before the loss, in that frame's body axes, so they measure
-// only what the loss adds (not the drift before it) and need no alignment of the world frames.
+#include "tools/coasting_report.hpp"
+
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
-#include <vector>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <sstream>
+#include <stdexcept>
 
-#include "core/common/types.hpp"
-#include "drivers/dataset/dataset.hpp"
+#include <spdlog/fmt/fmt.h>
 
-namespace seavio::test {
+namespace seavio::tools {
 
-/// Figures of one loss stretch [from_ns, to_ns) on the dataset clock.
-struct CoastFigures {
-  int frames_in_loss = 0;     ///< frames with a stamp inside the stretch
-  int flagged_in_loss = 0;    ///< of those, published as IMU-only (coasting)
-  bool covariance_grows = true;  ///< position variance rose at every coasting frame
-  bool finite = true;         ///< every pose and covariance finite (whole run)
-  double sigma_start_m = 0;   ///< sqrt(trace of the position covariance) at the last frame before
-  double sigma_end_m = 0;     ///< ... and at the last frame inside the stretch
-  std::vector<double> error_at_s;  ///< seconds into the stretch the errors below are taken at
-  std::vector<double> error_m;     ///< position error accumulated since the stretch began [m]
-  /// The position standard deviation the odometry added since the stretch began, at the same
-  /// times: sqrt(trace now - trace at the last frame before) [m]; its bound for error_m.
-  std::vector<double> sigma_added_m;
-  double error_end_m = 0;     ///< at the last frame inside the stretch
-  double recovery_s = -1;     ///< stretch end to the first visual pose after it (-1: none)
-  /// At that first visual pose: its position change from the frame before it minus the true
-  /// change [m]; a jump at recovery would show here (-1: no recovery).
-  double recovery_jump_m = -1;
-  double error_after_m = 0;   ///< accumulated error `after_s` after the stretch ended
-  double distance_m = 0;      ///< ground-truth distance travelled inside the stretch
-  /// |velocity - true velocity| at the last frame before the stretch: what coasting starts
-  /// from [m/s] (ground truth without velocity: 0).
-  double handover_velocity_error_m_s = 0;
-  /// Tilt error at that frame: angle between the estimated and the true vertical in the body
-  /// axes [rad]; a tilt error turns gravity into a horizontal acceleration while coasting.
-  double handover_tilt_error_rad = 0;
-};
+namespace {
 
 /// Ground truth at the sample nearest `t_ns`.
-inline const drivers::GroundTruthState& nearestTruth(const drivers::Dataset& ds, int64_t t_ns) {
+const drivers::GroundTruthState& nearestTruth(const drivers::Dataset& ds, int64_t t_ns) {
   const auto& gt = ds.ground_truth;
   auto it = std::lower_bound(gt.begin(), gt.end(), t_ns,
                              [](const drivers::GroundTruthState& g, int64_t t) { return g.t_ns < t; });
@@ -51,16 +24,41 @@ inline const drivers::GroundTruthState& nearestTruth(const drivers::Dataset& ds,
   return *it;
 }
 
-inline double positionSigma(const OdometryResult& r) {
+double positionSigma(const OdometryResult& r) {
   return std::sqrt(std::max(0.0, r.covariance.bottomRightCorner<3, 3>().trace()));
 }
 
-/// `results` are per frame of `ds` (same order). `at_s` lists the times into the stretch to
-/// report the error at; `after_s` is how long after the stretch the recovery error is taken.
-inline CoastFigures coastFigures(const drivers::Dataset& ds, const std::vector<OdometryResult>& results,
-                                 int64_t from_ns, int64_t to_ns, const std::vector<double>& at_s,
-                                 double after_s) {
+}  // namespace
+
+std::vector<LossStretch> readLossStretches(const std::string& dataset_dir) {
+  const std::string path = (std::filesystem::path(dataset_dir) / "mav0" / "vision_loss.csv").string();
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path + ": cannot open (render the survey with vision-loss stretches)");
+  std::vector<LossStretch> out;
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    if (line.empty() || line[0] == '#') continue;
+    std::stringstream ss(line);
+    std::string kind, a, b;
+    LossStretch s;
+    try {
+      if (!std::getline(ss, kind, ',') || !std::getline(ss, a, ',') || !std::getline(ss, b, ','))
+        throw std::invalid_argument("three fields expected");
+      s = {kind, std::stoll(a), std::stoll(b)};
+    } catch (const std::exception&) {
+      throw std::runtime_error(fmt::format("{}:{}: not 'kind,start_ns,end_ns': '{}'", path, n, line));
+    }
+    if (s.to_ns <= s.from_ns) throw std::runtime_error(fmt::format("{}:{}: the stretch ends before it starts", path, n));
+    out.push_back(s);
+  }
+  return out;
+}
+
+CoastFigures coastFigures(const drivers::Dataset& ds, const std::vector<OdometryResult>& results,
+                          const LossStretch& stretch, const std::vector<double>& at_s, double after_s) {
+  const int64_t from_ns = stretch.from_ns, to_ns = stretch.to_ns;
   CoastFigures f;
+  f.after_s = after_s;
   std::size_t ref = 0;
   bool have_ref = false;
   for (std::size_t i = 0; i < results.size(); ++i) {
@@ -122,4 +120,18 @@ inline CoastFigures coastFigures(const drivers::Dataset& ds, const std::vector<O
   return f;
 }
 
-}  // namespace seavio::test
+std::string formatCoastFigures(const std::string& what, const LossStretch& s, const CoastFigures& f) {
+  std::string line = fmt::format(
+      "{:<28} {:<11} {:5.1f} s: flagged {}/{}, sigma {:.3f} -> {:.3f} m, hand-over velocity error {:.3f} m/s, "
+      "tilt error {:.1f} mrad, error",
+      what, s.kind, static_cast<double>(s.to_ns - s.from_ns) * 1e-9, f.flagged_in_loss, f.frames_in_loss,
+      f.sigma_start_m, f.sigma_end_m, f.handover_velocity_error_m_s, 1e3 * f.handover_tilt_error_rad);
+  for (std::size_t i = 0; i < f.error_m.size(); ++i)
+    line += fmt::format(" @{:.1f}s {:.3f} (3sigma {:.3f})", f.error_at_s[i], f.error_m[i], 3 * f.sigma_added_m[i]);
+  line += fmt::format(" end {:.3f} m ({:.2f} m travelled); vision back after {:.2f} s (jump {:.3f} m), error {:.1f} s "
+                      "later {:.3f} m",
+                      f.error_end_m, f.distance_m, f.recovery_s, f.recovery_jump_m, f.after_s, f.error_after_m);
+  return line;
+}
+
+}  // namespace seavio::tools
