@@ -44,7 +44,9 @@ void printMetrics(std::ostream& os, const eval::TrajectoryMetrics& m) {
      << fmt("%.2f", m.mean_tilt_error_deg) << " deg, max " << fmt("%.2f", m.max_tilt_error_deg) << " deg\n";
   if (m.heading_steps > 0)
     os << "  heading error step on straight stretches: " << fmt("%.1f", 1e6 * m.heading_step_rms_rad)
-       << " urad rms over " << m.heading_steps << " steps (the per-frame noise the heading random-walks with)\n";
+       << " urad rms (median " << fmt("%.1f", 1e6 * m.heading_step_median_rad) << ", p90 "
+       << fmt("%.1f", 1e6 * m.heading_step_p90_rad) << ") over " << m.heading_steps
+       << " steps (the per-frame noise the heading random-walks with)\n";
   os << "\nATE RMSE after SE(3) Umeyama alignment: " << fmt("%.3f", m.ate_rmse_m) << " m\n";
   if (m.rpe_segments > 0)
     os << "RPE per 10 m (" << m.rpe_segments << " segments): translation " << fmt("%.2f", m.rpe_trans_pct)
@@ -70,7 +72,8 @@ void writeMetricsJson(const std::string& path, const eval::TrajectoryMetrics& m)
       {"max_heading_error_deg", m.max_heading_error_deg}, {"mean_tilt_error_deg", m.mean_tilt_error_deg},
       {"max_tilt_error_deg", m.max_tilt_error_deg},         {"ate_rmse_m", m.ate_rmse_m},
       {"rpe_trans_pct", m.rpe_trans_pct},   {"rpe_rot_deg_per_m", m.rpe_rot_deg_per_m},
-      {"heading_step_rms_rad", m.heading_step_rms_rad}};
+      {"heading_step_rms_rad", m.heading_step_rms_rad}, {"heading_step_median_rad", m.heading_step_median_rad},
+      {"heading_step_p90_rad", m.heading_step_p90_rad}};
   for (const auto& [k, v] : scalars) out << "  \"" << k << "\": " << num(v) << ",\n";
   out << "  \"rpe_segments\": " << m.rpe_segments << ",\n";
   out << "  \"heading_steps\": " << m.heading_steps << ",\n";

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <vector>
 
 #include <Eigen/SVD>
 
@@ -116,6 +117,7 @@ TrajectoryMetrics evaluateTrajectory(const std::vector<TimedPose>& gt, const std
   // from the start.
   const Eigen::Isometry3d T_align = G[0] * E[0].inverse();
   double sum = 0, sum2 = 0, dist = 0, sum_h = 0, sum_v = 0, sum_yaw = 0, sum_tilt = 0, sum_step2 = 0;
+  std::vector<double> step_sizes;
   // Turn about W's z of a rotation (R_est R_gt^T, or one truth step): the angle of its action
   // on the horizontal plane (atan2 of the antisymmetric over the symmetric part), exact for a
   // pure heading change and unaffected to first order by roll and pitch.
@@ -135,6 +137,7 @@ TrajectoryMetrics evaluateTrajectory(const std::vector<TimedPose>& gt, const std
         const double step_rad = std::remainder((yaw_deg - m.heading_error_deg.back()) * std::numbers::pi / 180.0,
                                                2 * std::numbers::pi);
         sum_step2 += step_rad * step_rad;
+        step_sizes.push_back(std::abs(step_rad));
         ++m.heading_steps;
       }
     }
@@ -163,7 +166,16 @@ TrajectoryMetrics evaluateTrajectory(const std::vector<TimedPose>& gt, const std
   m.mean_vertical_error_m = sum_v / double(n);
   m.mean_heading_error_deg = sum_yaw / double(n);
   m.mean_tilt_error_deg = sum_tilt / double(n);
-  if (m.heading_steps > 0) m.heading_step_rms_rad = std::sqrt(sum_step2 / m.heading_steps);
+  if (m.heading_steps > 0) {
+    m.heading_step_rms_rad = std::sqrt(sum_step2 / m.heading_steps);
+    const auto rank = [&](double q) {
+      const auto k = std::min(step_sizes.size() - 1, static_cast<std::size_t>(q * static_cast<double>(step_sizes.size())));
+      std::nth_element(step_sizes.begin(), step_sizes.begin() + static_cast<std::ptrdiff_t>(k), step_sizes.end());
+      return step_sizes[k];
+    };
+    m.heading_step_median_rad = rank(0.5);
+    m.heading_step_p90_rad = rank(0.9);
+  }
   m.std_error_m = std::sqrt(std::max(0.0, sum2 / double(n) - m.mean_error_m * m.mean_error_m));
   m.final_error_m = m.error_m.back();
   m.distance_m = dist;

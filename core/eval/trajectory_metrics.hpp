@@ -69,6 +69,10 @@ struct TrajectoryMetrics {
   /// frames). Hundreds of steps per survey make it a steadier comparison of two
   /// configurations than any survey's end error, which one walk decides.
   double heading_step_rms_rad = 0;
+  /// Median and 90th percentile of the same steps' size (nearest rank) [rad]: whether a
+  /// change narrows every step or trims a few outliers, which the rms alone cannot tell.
+  double heading_step_median_rad = 0;
+  double heading_step_p90_rad = 0;
   int heading_steps = 0;  ///< straight steps it is taken over
 
   double ate_rmse_m = 0;            ///< after SE(3) Umeyama alignment (no scale)

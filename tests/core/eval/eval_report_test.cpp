@@ -69,6 +69,8 @@ TEST(EvalReport, JsonHoldsFiguresAndArrays) {
   EXPECT_NE(s.find(buf), std::string::npos);
   std::snprintf(buf, sizeof(buf), "\"heading_step_rms_rad\": %.9g", m.heading_step_rms_rad);
   EXPECT_NE(s.find(buf), std::string::npos);
+  std::snprintf(buf, sizeof(buf), "\"heading_step_p90_rad\": %.9g", m.heading_step_p90_rad);
+  EXPECT_NE(s.find(buf), std::string::npos);
   std::snprintf(buf, sizeof(buf), "\"heading_steps\": %d,", m.heading_steps);
   EXPECT_NE(s.find(buf), std::string::npos);
   // Per pose: time, distance, error, heading, tilt and the error along W's x, y and z; the

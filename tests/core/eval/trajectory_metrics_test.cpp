@@ -149,6 +149,34 @@ TEST(TrajectoryMetrics, HeadingStepRmsIsThePerFrameHeadingNoiseOnStraightStretch
   EXPECT_NEAR(evaluateTrajectory(gt, est).heading_step_rms_rad, 0, 1e-9);
 }
 
+TEST(TrajectoryMetrics, HeadingStepMedianAndP90TellWideStepsFromAFewOutliers) {
+  // GIVEN 101 poses straight at 10 Hz; the heading error's steps are 1a, 2a, ..., 10a, ten
+  // of each, alternating in sign.
+  constexpr double a = 1e-4;
+  std::vector<TimedPose> gt, est;
+  double heading_error = 0;
+  for (int i = 0; i <= 100; ++i) {
+    TimedPose g;
+    g.t_ns = int64_t(i) * 100'000'000;
+    g.T_W_B.translation() = Eigen::Vector3d(0.1 * i, 0, 0);
+    gt.push_back(g);
+    if (i > 0) heading_error += (i % 2 ? 1 : -1) * a * ((i - 1) % 10 + 1);
+    TimedPose e = g;
+    e.T_W_B.linear() = Eigen::AngleAxisd(heading_error, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    est.push_back(e);
+  }
+  // THEN the 100 steps' sizes have the nearest-rank median 6a and 90th percentile 10a
+  const TrajectoryMetrics m = evaluateTrajectory(gt, est);
+  ASSERT_EQ(m.heading_steps, 100);
+  EXPECT_NEAR(m.heading_step_median_rad, 6 * a, 1e-9);
+  EXPECT_NEAR(m.heading_step_p90_rad, 10 * a, 1e-9);
+  // AND one pose 100a off (two steps of ~100a) more than doubles the rms, the median moves a rank
+  est[50].T_W_B.linear() = Eigen::AngleAxisd(100 * a, Eigen::Vector3d::UnitZ()).toRotationMatrix() * est[50].T_W_B.linear();
+  const TrajectoryMetrics o = evaluateTrajectory(gt, est);
+  EXPECT_GT(o.heading_step_rms_rad, 2 * m.heading_step_rms_rad);
+  EXPECT_NEAR(o.heading_step_median_rad, m.heading_step_median_rad, 1.01 * a);
+}
+
 TEST(TrajectoryMetrics, InterpolatesGroundTruthBetweenSamples) {
   // Estimate at 10 Hz, offset by 50 ms: halfway between ground-truth samples.
   const auto gt = line(5.0);
