@@ -1,6 +1,6 @@
 #pragma once
 /// Bilinear remap of 8-bit grey images over OpenCV's fixed-point maps, into a caller-owned
-/// output (issue 8: no allocation on the per-frame path). cv::remap allocates its tile buffers
+/// output (no allocation on the per-frame path). cv::remap allocates its tile buffers
 /// on every call (four per image); this reads the maps in place.
 #include <cstdint>
 

@@ -1,5 +1,5 @@
 #pragma once
-/// Capacity growth for the per-frame buffers (issue 8: no allocation on the per-frame path).
+/// Capacity growth for the per-frame buffers (no allocation on the per-frame path).
 #include <cstddef>
 
 namespace seavio {

@@ -41,12 +41,12 @@ enum class PoseSource : uint8_t {
 };
 
 /// What corrected an IMU-only frame's dead reckoning for the acceleration the IMU misses
-/// (issue 5 observability: which losses the leak the fixes agree on corrected, which only
+/// (observability: which losses the leak the fixes agree on corrected, which only
 /// widened the covariance). Chosen at an outage's first frame and held for the whole stretch.
 enum class CoastingCorrection : uint8_t {
   kNone = 0,            ///< not coasted: a visual (or the first) frame
   kBare = 1,            ///< the bare IMU prediction: no handover fit and no leak estimate
-  kHandoverFit = 2,     ///< velocity (and acceleration) fitted over the last fixes (10 Hz, issue 9)
+  kHandoverFit = 2,     ///< velocity (and acceleration) fitted over the last fixes (10 Hz)
   kAgreedLeak = 3,      ///< the leak the last steady fixes agree on (core/imu/coasting_leak.hpp, 1 Hz)
   kCovarianceOnly = 4,  ///< the fixes disagreed: no correction, only the covariance widened
   kNoImu = 5,           ///< no IMU: the constant-velocity prediction

@@ -1,5 +1,5 @@
 #pragma once
-/// Row-count changes of a cv::Mat that keep its allocation across frames (issue 8: no
+/// Row-count changes of a cv::Mat that keep its allocation across frames (no
 /// allocation on the per-frame path once running).
 #include <algorithm>
 #include <cstddef>

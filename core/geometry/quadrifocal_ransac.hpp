@@ -69,7 +69,7 @@ class QuadrifocalRansac {
   [[nodiscard]] RansacResult estimate(std::span<const QuadMatch> matches,
                                       const Eigen::Isometry3d& T_prev_curr_prior,
                                       std::mt19937& rng);
-  /// The same into `out`, whose inlier list keeps its capacity from earlier calls (issue 8: a
+  /// The same into `out`, whose inlier list keeps its capacity from earlier calls (a
   /// caller that keeps `out` across frames allocates nothing here once warm).
   void estimate(std::span<const QuadMatch> matches, const Eigen::Isometry3d& T_prev_curr_prior,
                 std::mt19937& rng, RansacResult& out);

@@ -61,7 +61,7 @@ struct IcpPair {
 };
 
 /// alignIcp's scratch, kept by a caller that aligns every frame so that a frame's ICP does not
-/// call the heap once the buffers have their size (issue 8).
+/// call the heap once the buffers have their size.
 struct IcpWorkspace {
   std::vector<IcpPair> pairs;
   std::vector<double> residuals_m;

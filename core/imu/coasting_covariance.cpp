@@ -44,7 +44,7 @@ void CoastingCovariance::setMeasuredMotion(const Eigen::Matrix3d& velocity_covar
   // component of the bias's (the bias is fixed in the body, so its horizontal components turn
   // with the heading and keep their prior). At the hand-over the acceleration error is then e
   // plus the horizontal bias prior. Carrying the fit's error on top of the full tilt prior
-  // counted the tilt twice (issue 9: 3 sigma / error ~20 once the gravity-referenced tilt had
+  // counted the tilt twice (3 sigma / error ~20 once the gravity-referenced tilt had
   // made the tilt itself small). Cancelling the horizontal bias too is exact only until the
   // first turn, and left 2 of 24 CoastingConsistency errors just above 3 sigma.
   const Eigen::Matrix3d vertical = Eigen::Vector3d::UnitZ() * Eigen::Vector3d::UnitZ().transpose();

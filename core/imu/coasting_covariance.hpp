@@ -1,5 +1,5 @@
 #pragma once
-/// Error covariance of IMU dead reckoning through a vision outage (issue 9; paper section III-A
+/// Error covariance of IMU dead reckoning through a vision outage (paper section III-A
 /// for the propagation itself).
 ///
 /// Per-frame propagation from a fresh visual fix (imu::propagate) is right for the matching

@@ -1,5 +1,5 @@
 #pragma once
-/// The velocity handed over to IMU coasting when vision is lost (issue 9), measured over a
+/// The velocity handed over to IMU coasting when vision is lost, measured over a
 /// window of visual fixes instead of taken from the last frame.
 ///
 /// The odometry's velocity after a visual fix is the IMU prediction corrected by the whole

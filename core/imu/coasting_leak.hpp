@@ -1,7 +1,7 @@
 #pragma once
 /// The acceleration the IMU prediction misses (tilt x g, accelerometer bias), measured from the
 /// innovations of several recent visual fixes that agree, for coasting at low frame rates
-/// (issue 5: the 1 Hz paper survey's coasted frames).
+/// (the 1 Hz paper survey's coasted frames).
 ///
 /// After a visual fix the odometry's velocity is the prediction's corrected by the whole
 /// position residual over dt (odometry.cpp). With an acceleration error `a` constant over two

@@ -1,5 +1,5 @@
 #pragma once
-/// The roll/pitch part of the gyro bias from the accelerometer's gravity (issue 4).
+/// The roll/pitch part of the gyro bias from the accelerometer's gravity.
 ///
 /// Over a flat floor the visual rotation couples pitch with surge (the pitch/surge ambiguity
 /// the gyro prior resolves, paper III-C), so a gyro bias learnt from it inherits a pitch rate

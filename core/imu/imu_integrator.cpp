@@ -16,7 +16,7 @@ ImuPropagation propagate(const NavState& start, const Matrix9d& start_covariance
   if (t_end_ns <= t0) return out;
 
   // Knots: start, every sample strictly inside, end. Walked in place rather than collected
-  // (this runs every frame; issue 8: no allocation on the per-frame path).
+  // (this runs every frame: no allocation on the per-frame path).
   const auto inside = [&](const ImuSample& s) { return s.t_ns > t0 && s.t_ns < t_end_ns; };
   {
     int64_t last = t0;

@@ -3,7 +3,7 @@
 /// points, indexed by position so that selecting the frames near a predicted position costs
 /// O(1) on average however long the mission (a hash grid with cells of the selection radius).
 ///
-/// Memory grows with the area surveyed, not with the time spent over it (issues 5 and 8): a
+/// Memory grows with the area surveyed, not with the time spent over it: a
 /// new keyframe is taken only after some travel or rotation AND where no stored keyframe
 /// already covers the view, and points are stored as int16 millimetres in the keyframe's
 /// camera frame (6 bytes a point instead of 12), strongest first, capped per keyframe.
@@ -84,7 +84,7 @@ class FrameMap {
   /// Keyframes within the selection radius of `position_W`, nearest first, capped.
   std::vector<const MapFrame*> selectNear(const Eigen::Vector3d& position_W) const;
   /// The same into `out` (cleared first): with a caller-owned `out`, no allocation once it has
-  /// grown to the cap (issue 8: this runs every frame in global mode).
+  /// grown to the cap (this runs every frame in global mode).
   void selectNear(const Eigen::Vector3d& position_W, std::vector<const MapFrame*>& out) const;
   /// Every keyframe within `radius_m` of `position_W` (any radius: the grid cells it spans
   /// are visited), nearest first, uncapped. For the re-observation search, whose radius grows

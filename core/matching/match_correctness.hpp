@@ -1,6 +1,6 @@
 #pragma once
 /// Ground-truth check of inter-frame matches, for measuring what the IMU pruning of paper
-/// section III-C buys (issue 4): a match is correct when the previous frame's point, moved by
+/// section III-C buys: a match is correct when the previous frame's point, moved by
 /// the true motion, lands on the current point in both rectified images.
 #include <vector>
 

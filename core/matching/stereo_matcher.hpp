@@ -51,7 +51,7 @@ struct StereoPoint {
 };
 
 /// Scratch of matchStereo kept across frames by its owner (Frontend's workspace), so a warm
-/// call allocates nothing (issue 8): vectors are cleared and refilled, never freed.
+/// call allocates nothing: vectors are cleared and refilled, never freed.
 struct StereoMatchWorkspace {
   /// Best and second-best candidate of one keypoint (ratio test, left-right check).
   struct Best {

@@ -41,8 +41,8 @@ struct StereoFeatures {
   int completed = 0;
 };
 
-/// Scratch of matchTemporal kept across frames by its owner, so a warm call allocates nothing
-/// (issue 8): the pixel grid is stored flat (counting sort of the points by cell) instead of
+/// Scratch of matchTemporal kept across frames by its owner, so a warm call allocates nothing:
+/// the pixel grid is stored flat (counting sort of the points by cell) instead of
 /// one vector per cell, and every buffer is refilled, never freed.
 struct TemporalMatchWorkspace {
   std::vector<int> cell_start;   ///< grid cell c holds cell_points[cell_start[c] .. cell_start[c + 1])

@@ -1,5 +1,5 @@
 #pragma once
-/// The absolute pose covariance of the odometry chain (issue 5): what the global step sizes its
+/// The absolute pose covariance of the odometry chain: what the global step sizes its
 /// re-observation search and gate with (paper III-D: the map bounds the drift, so it must know
 /// how far the drift can have gone).
 ///

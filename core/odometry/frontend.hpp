@@ -3,7 +3,7 @@
 /// triangulate (paper Fig. 2, left column). Const and stateless so the daemon's worker pool
 /// can run the left and right detections in parallel; the buffers a frame needs live in a
 /// FrontendWorkspace owned by the caller (one per pipeline), so that frames after the first
-/// reuse them instead of allocating (issue 8).
+/// reuse them instead of allocating.
 #include <utility>
 #include <vector>
 
@@ -50,7 +50,7 @@ void normalizeIllumination(const cv::Mat& in, cv::Mat& out, const IlluminationPa
 /// cv::GaussianBlur(img, img, {0, 0}, sigma, 0, cv::BORDER_REFLECT) uses (side round(8 sigma
 /// + 1), odd), equal to it up to float rounding (the sums' order differs). The kernel (made
 /// when sigma changes) and row buffers are kept, so repeated calls allocate nothing; OpenCV 4
-/// builds its kernel and filter engine on every call and exposes no reusable one (issue 8).
+/// builds its kernel and filter engine on every call and exposes no reusable one.
 class GaussianBlur32f {
  public:
   void apply(cv::Mat& img, double sigma);
@@ -85,9 +85,9 @@ void normalizeIllumination(const cv::Mat& in, cv::Mat& out, const IlluminationPa
 /// opening (erode then dilate) with a disc wider than the dots removes them and leaves the
 /// larger floor texture and dark structure alone. It flattens the floor's own fine bright
 /// texture too, which costs heading (1 Hz, 300 frames of six surveys: 133 urad per step on
-/// clear water with the opening, 98 with only the dots opened; docs/benchmarks.md, stop 44).
+/// clear water with the opening, 98 with only the dots opened; docs/benchmarks.md).
 /// So by default only the dots take the opening: pixels near one more than `dot_dn` above it;
-/// the rest keep up to `keep_dn` above it (255: untouched; 0: stop 43's plain opening).
+/// the rest keep up to `keep_dn` above it (255: untouched; 0: the plain opening).
 struct SnowFilterParams {
   bool enabled = true;
   int kernel_px = 5;  ///< disc diameter [px]: bright spots narrower than this are dots
@@ -163,7 +163,7 @@ class Frontend {
   features::Features detect(const cv::Mat& rectified, double threshold) const;
   /// The same with SURF's buffers in `surf` (one per thread calling at once).
   features::Features detect(const cv::Mat& rectified, double threshold, features::SurfWorkspace& surf) const;
-  /// The same into `out`, reusing its keypoint and descriptor buffers (issue 8).
+  /// The same into `out`, reusing its keypoint and descriptor buffers.
   /// `upright_angle_deg`: upright SURF's steering angle (Odometry::descriptorSteeringDeg).
   void detect(const cv::Mat& rectified, double threshold, features::SurfWorkspace& surf,
               features::Features& out, float upright_angle_deg = 0.f) const;

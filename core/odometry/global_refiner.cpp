@@ -71,7 +71,7 @@ GlobalCorrection GlobalRefiner::correct(const matching::StereoFeatures& features
   c.frame_id = frame_id;
   c.t_ns = t_ns;
   Eigen::Isometry3d T_W_R0 = T_W_R0_local;
-  std::vector<const map::MapFrame*>& selected = selected_;  // kept across frames (issue 8)
+  std::vector<const map::MapFrame*>& selected = selected_;  // kept across frames
   map_.selectNear(T_W_R0.translation(), selected);
   // After a re-observation the frame may have moved by metres: ICP's model is the map
   // around where the frame now is.

@@ -2,7 +2,7 @@
 /// The global step of the paper's 'global' variant (Sec. III-D/E) as a value-in/value-out unit:
 /// a frame's local pose and its points in, the map's correction of that pose out. It owns the
 /// rough global map (FrameMap) and the keyframes kept for re-observation, so it can run beside
-/// the local odometry (the daemon's ICP thread, issue 8) or inline in `Odometry` (offline runs).
+/// the local odometry (the daemon's ICP thread) or inline in `Odometry` (offline runs).
 /// Pure and single-threaded like the rest of core: whoever calls it owns the thread.
 #include <cstdint>
 #include <deque>

@@ -46,8 +46,7 @@ MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<c
                                     std::span<const uint32_t> inliers, const Eigen::Isometry3d& T_prev_curr_init,
                                     const RotationPrior& prior, const MotionRefinementParams& params);
 
-/// Buffers of refineMotion, kept by a caller across frames so a warm call allocates nothing
-/// (issue 8).
+/// Buffers of refineMotion, kept by a caller across frames so a warm call allocates nothing.
 struct MotionRefinementWorkspace {
   struct Obs {
     Eigen::Vector3d X;                ///< point in the previous left camera [m]

@@ -18,7 +18,7 @@ using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
 /// The stereo matches the feature controller holds (target_stereo_matches): descriptor matches
 /// only. Completed points come on top of the features it keeps; counted, they would make it
-/// keep fewer features where completion helps most (snow at 10 Hz, stop 42).
+/// keep fewer features where completion helps most (snow at 10 Hz).
 int descriptorStereoMatches(const Quality& q) { return q.stereo_matches - q.stereo_completed; }
 
 /// Relative-motion covariance (rotation, translation) from the propagated error state.
@@ -226,7 +226,7 @@ float Odometry::descriptorSteeringDeg(int64_t t_ns, std::span<const ImuSample> i
 }
 
 OdometryResult Odometry::process(const StereoFrame& frame, std::span<const ImuSample> imu) {
-  // Into the buffers of an earlier frame, which track() hands back (issue 8: no allocation).
+  // Into the buffers of an earlier frame, which track() hands back (no allocation).
   frontend_.process(frame, controller_.threshold(), now_, frontend_ws_, spare_frame_,
                     descriptorSteeringDeg(frame.t_ns, imu));
   return track(std::move(spare_frame_), imu);
@@ -608,7 +608,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
       state_.gyro_bias_rad_s -= gyroBiasGain(params_, dt_s) * residual_B;
       gyro_bias_sigma_rad_s_ = std::max(params_.gyro_bias_sigma_at_rest_rad_s, gyro_bias_sigma_rad_s_ * 0.99);
     }
-    // Issue 9: this interval for the velocity handed over if vision is lost next (a fit over
+    // This interval for the velocity handed over if vision is lost next (a fit over
     // the last fixes, core/imu/coasting_handover.hpp); the state's own velocity is unchanged.
     if (have_imu)
       handover_.add({frame.t_ns, T_W_B.translation() - map_shift_W - state_.T_W_B.translation(),
@@ -674,7 +674,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
         coast_start_pose_covariance_ = pose_covariance_;
         coasting_.start({params_.attitude_sigma_rad, params_.velocity_sigma_m_s, gyro_bias_sigma_rad_s_,
                          params_.accel_bias_sigma_m_s2});
-        // Issue 9: the velocity fitted over the last visual fixes replaces the last frame's
+        // The velocity fitted over the last visual fixes replaces the last frame's
         // (a whole frame's position residual over 0.1 s), with the uncertainty of that fit.
         // Dead reckoning is linear in its start velocity, so this frame's prediction moves by
         // the difference times dt.
@@ -699,7 +699,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
         } else if (const std::optional<imu::LeakEstimate> leak =
                        params_.coasting_leak_correction ? coasting_leak_.estimate(frame.t_ns, params_.coasting_leak)
                                                         : std::nullopt) {
-          // Issue 5, 1 Hz: no handover fit; the leak the last steady fixes agree on
+          // 1 Hz: no handover fit; the leak the last steady fixes agree on
           // (core/imu/coasting_leak.hpp). The last fix left the velocity low by the leak x
           // dt / 2 (its error is the correction's error times that lag); the correction then
           // acts on every coasted interval below. Fixes that disagree correct nothing and
@@ -885,7 +885,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
       newKeyframe(frame, T_W_R0, r.t_ns);
     }
   }
-  // The outgoing previous frame's buffers go back to the caller's FrameFeatures (issue 8).
+  // The outgoing previous frame's buffers go back to the caller's FrameFeatures.
   std::swap(previous_->features, frame);
   previous_->T_W_R0 = T_W_R0;
   previous_->t_ns = r.t_ns;
@@ -901,7 +901,7 @@ void Odometry::newKeyframe(const FrameFeatures& frame, const Eigen::Isometry3d& 
   const matching::StereoFeatures& features = frame.stereo;
   // Its own copies (the keyframe outlives the frame whose buffers the frontend reuses), into
   // the outgoing keyframe's buffers: at 1 Hz every frame is a keyframe, and fresh copies would
-  // allocate images and points per frame (issue 8). The descriptors' Mat is reallocated when
+  // allocate images and points per frame. The descriptors' Mat is reallocated when
   // the count changes; the tree's nodes always are (nanoflann's pool).
   Keyframe k;
   if (keyframe_) {
@@ -997,7 +997,7 @@ Eigen::Matrix3d Odometry::gyroBiasRotationCovariance(const Eigen::Matrix3d& R_B_
   // gyro_bias_vision_tilt_weight 0). Gravity pins them within a leg (5e-5 rad/s), well below the
   // floor the heading keeps; the floor on them let a 1 Hz step's prior-free pitch, which trades
   // with surge over a flat floor (paper III-C) and has a mean of ~3e-4 rad per step, into
-  // the attitude (docs/benchmarks.md, stop 41).
+  // the attitude (docs/benchmarks.md).
   Eigen::Matrix3d cov_B = Eigen::Matrix3d::Identity() * gyro_bias_sigma_rad_s_ * gyro_bias_sigma_rad_s_;
   cov_B.topLeftCorner<2, 2>() = accel_bias_.gyroBiasCovariance();
   return R_B_R0.transpose() * cov_B * R_B_R0 * (dt_s * dt_s);

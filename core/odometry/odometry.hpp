@@ -123,9 +123,9 @@ struct OdometryParams {
   double velocity_sigma_m_s = 0.05;          ///< after a visual fix [m/s]
   double attitude_sigma_rad = 0.005;         ///< after a visual fix [rad]
   /// Fraction of the visual gyro-bias residual applied per frame (at gyro_bias_gain_interval_s).
-  /// 0.02 since stop 35 (0.01 before): on the full 1 Hz paper-plain survey with the
-  /// accelerometer-bias filter, median over four untuned seeds 1.45 -> 1.36 m; neutral on the
-  /// 10 Hz short surveys (docs/benchmarks.md, stop 35).
+  /// With the accelerometer-bias filter holding the tilt, 0.02 follows the bias walk of the
+  /// full 1 Hz paper-plain survey more closely and is neutral on the 10 Hz short surveys
+  /// (docs/benchmarks.md).
   double gyro_bias_gain = 0.02;
   /// Frame interval at which gyro_bias_gain holds [s]; at other intervals the gain per frame
   /// scales with sqrt(interval / this). A steady-state Kalman gain for a random-walk bias is
@@ -133,21 +133,20 @@ struct OdometryParams {
   /// residual in rad/s) was measured about the same at 10 Hz and 1 Hz (0.95e-3 / 1.1e-3 rad/s rms on
   /// the heading), so 0.01 at 10 Hz is 0.032 at 1 Hz, not 0.01 (a 100 s lag behind the bias
   /// walk on the 1 Hz survey) nor 0.1 (a 10 s time constant: noisier). 0 = per frame at any rate.
-  /// On (0.1) since 1 Hz coasting uses the leak the fixes agree on (coasting_leak.hpp): full
-  /// 1 Hz paper surveys, global, 0.13 -> 0.07 % plain and 0.21 -> 0.09 % snow mean; before
-  /// that fix snow lost twice as many frames to coasting with it (docs/architecture.md).
+  /// On (0.1) because 1 Hz coasting uses the leak the fixes agree on (coasting_leak.hpp):
+  /// without that, snow lost twice as many frames to coasting with it (docs/architecture.md).
   double gyro_bias_gain_interval_s = 0.1;
   /// Keyframe tracking: learn the gyro bias once per keyframe, from the frame that ends its
   /// span (the longest gyro/vision baseline, so the least visual noise per rad/s), with the
   /// gain of the frames it served, instead of from every frame's short, noisy span. Saves the
   /// prior-free refinement on all other frames. Off, or without keyframes: every frame.
-  /// Off by default: on 800-frame surveys it cut the snow drift (seed 11: final 0.44 -> 0.16 %)
+  /// Off by default: on 800-frame surveys it cut the snow drift
   /// but raised the plain final error on seeds 5, 11 and 37 (docs/architecture.md).
   bool gyro_bias_per_keyframe = false;
   double gyro_bias_sigma_at_rest_rad_s = 3e-4;  ///< bias uncertainty after a still start [rad/s]
   double gyro_bias_sigma_unknown_rad_s = 3e-3;  ///< bias uncertainty without one [rad/s]
   /// Weight of the tilt part (roll/pitch: perpendicular to gravity in the body frame) of the
-  /// visual gyro-bias residual (issue 4). Over a flat floor the prior-free visual rotation
+  /// visual gyro-bias residual. Over a flat floor the prior-free visual rotation
   /// couples pitch with surge (paper III-C), so that part carries a rate proportional to speed
   /// which the bias learnt and the gyro prior then put into the attitude (2.5 mrad/s of pitch on
   /// short-plain seed 23). 1 = learn all of it; 0 = vision learns the heading rate only and the
@@ -157,9 +156,9 @@ struct OdometryParams {
   /// covariance the accelerometer-bias filter holds for them (accel_bias.gyro_bias_states),
   /// which shrinks as gravity shows the tilt they turn (~5e-5 rad/s within a leg), the heading
   /// with gyro_bias_sigma's. Off: gyro_bias_sigma on all three axes, whatever the filter
-  /// knows. On since stop 41: with the feature controller's inlier target, the 1 Hz vertical
-  /// error it had doubled came back (docs/benchmarks.md); a tighter floor on all axes instead
-  /// (6e-5) lost the 10 Hz tilt.
+  /// knows. On: with the feature controller's inlier target the 1 Hz vertical error doubles
+  /// without it (docs/benchmarks.md); a tighter floor on all axes instead (6e-5) costs the
+  /// 10 Hz tilt.
   bool gyro_bias_prior_tilt_from_filter = true;
   /// Tilt rates of the gyro bias from gravity (core/imu/gravity_bias_observer.hpp): the change,
   /// from one pair of windows of this length [s] to the next, of the accelerometer's specific
@@ -169,15 +168,15 @@ struct OdometryParams {
   /// short surveys' tilt drift follows twice as closely as with 2 s windows, and 4 s lost on 18
   /// of 20 (docs/benchmarks.md, "Tilt-rate windows").
   double gyro_bias_gravity_window_s = 1.0;
-  /// ...and at least this many frame intervals: at 1 Hz a window is then 2 s, as before (a
-  /// one-frame window raised the 0.1-scale plain surveys' error 0.017 -> 0.029 %).
+  /// ...and at least this many frame intervals: at 1 Hz a window is then 2 s (a one-frame
+  /// window is too noisy: it raises the 0.1-scale plain surveys' error).
   int gyro_bias_gravity_window_min_frames = 2;
   double gyro_bias_gravity_gain = 0.2;          ///< fraction of each measured tilt rate applied
   double gyro_bias_gravity_max_turn_rad = 0.05; ///< heading change that stops a comparison [rad]
   /// The accelerometer bias is not estimated: while coasting its whole spread counts (the
   /// simulator's 0.02 m/s^2 initial sigma plus its random walk over a survey) [m/s^2].
   double accel_bias_sigma_m_s2 = 0.03;
-  /// Coasting hand-over (issue 9): the velocity coasting starts from is fitted over the visual
+  /// Coasting hand-over: the velocity coasting starts from is fitted over the visual
   /// fixes of this last stretch [s] (at least `coasting_velocity_min_fixes` of them), with that
   /// fit's covariance; 0: the last frame's velocity with `velocity_sigma_m_s`. From
   /// `coasting_acceleration_min_fixes` fixes on (0: never) the fit also measures the
@@ -185,7 +184,7 @@ struct OdometryParams {
   double coasting_velocity_window_s = 2.0;
   int coasting_velocity_min_fixes = 4;
   int coasting_acceleration_min_fixes = 10;
-  /// Coasting at low frame rates (issue 5, core/imu/coasting_leak.hpp): where the handover fit
+  /// Coasting at low frame rates (core/imu/coasting_leak.hpp): where the handover fit
   /// has too few fixes (1 Hz), the acceleration the IMU misses is taken from the innovations of
   /// the last steady fixes if they agree, and the coasting corrected by it; if they do not,
   /// only the coasting covariance grows by a leak of their size. Off: the bare prediction.
@@ -199,16 +198,16 @@ struct OdometryParams {
   /// and leak gravity into the IMU prediction. 0 = off (the default: on the 10 Hz short survey
   /// it raised the error; docs/architecture.md, global section).
   double gravity_tilt_time_constant_s = 0.0;
-  /// Accelerometer bias and roll/pitch held to gravity together (issue 5,
-  /// core/imu/accel_bias_estimator.hpp): a Kalman filter on the disagreement between the
+  /// Accelerometer bias and roll/pitch held to gravity together
+  /// (core/imu/accel_bias_estimator.hpp): a Kalman filter on the disagreement between the
   /// IMU's specific force and the velocity change vision measured, over windows of
   /// `accel_bias.window_s`; the 180 deg turns separate the bias (fixed in the body) from the
   /// chain's tilt (fixed in W). Each update turns the chain's roll/pitch and sets the bias the
   /// dead reckoning subtracts. Replaces gravity_tilt_time_constant_s when on. The random walk
   /// and white noise of the bias come from the IMU's noise model, not from these params.
-  /// On by default since stop 35, with accel_bias_start_frame: the full paper-plain survey
-  /// 1.69 -> 1.36 m (median of four untuned seeds, with gyro_bias_gain 0.02), the 10 Hz short
-  /// surveys unchanged; without the start-up frame it cost those (docs/benchmarks.md).
+  /// On by default, with accel_bias_start_frame: it lowers the full paper-plain survey's error
+  /// and leaves the 10 Hz short surveys unchanged; without the start-up frame it costs those
+  /// (docs/benchmarks.md).
   bool accel_bias_estimation = true;
   imu::AccelBiasParams accel_bias;
   /// With accel_bias_estimation: publish in the start-up frame. Levelling on the biased
@@ -232,8 +231,8 @@ struct OdometryParams {
   /// heading only, and the gravity filter keeps its window through it. Roll and pitch from an
   /// ICP against a few metres of floor are worth mrad; gravity holds them better, and a
   /// revisit leg corrected on every frame would otherwise leave the filter blind for the
-  /// whole leg. On since stop 36: full paper-plain, six untuned seeds, mean tilt error
-  /// 0.125 -> 0.07 deg (max 0.63 -> 0.28 deg), position unchanged (docs/benchmarks.md).
+  /// whole leg. On: on the full paper-plain survey it about halves the tilt error and leaves
+  /// the position unchanged (docs/benchmarks.md).
   bool map_keeps_tilt = true;
   /// Global mode, re-observation (paper III-D: the map bounds the drift when the survey comes
   /// back over older ground): descriptors of a keyframe are kept every this much travel [m]...
@@ -358,7 +357,7 @@ class Odometry {
   imu::GravityBiasObserver gravity_bias_;   ///< gyro_bias_gravity_window_s
   int still_samples_ = 0;
   Eigen::Matrix<double, 6, 6> pose_covariance_ = Eigen::Matrix<double, 6, 6>::Zero();
-  /// Vision outage (issue 9): one error covariance from the last visual fix, and the pose
+  /// Vision outage: one error covariance from the last visual fix, and the pose
   /// covariance of that fix; the published covariance is their sum while coasting.
   imu::CoastingCovariance coasting_;
   Eigen::Matrix<double, 6, 6> coast_start_pose_covariance_ = Eigen::Matrix<double, 6, 6>::Zero();
@@ -398,7 +397,7 @@ class Odometry {
   Eigen::Isometry3d last_motion_ = Eigen::Isometry3d::Identity();  ///< for IMU-less prediction
   double last_dt_s_ = 0;
   std::vector<ImuSample> imu_buffer_;  ///< samples kept across calls for interpolation
-  /// Per-frame buffers kept across frames (issue 8: no allocation on the per-frame path).
+  /// Per-frame buffers kept across frames (no allocation on the per-frame path).
   FrontendWorkspace frontend_ws_;
   FrameFeatures spare_frame_;  ///< an earlier frame's buffers, refilled by the frontend
   struct TrackWork {

@@ -1,5 +1,5 @@
 #pragma once
-/// The comparison baseline named in issue 4: frame-to-frame stereo odometry with PnP-RANSAC
+/// The comparison baseline: frame-to-frame stereo odometry with PnP-RANSAC
 /// on the reference frame's 3D points and the current left image, no IMU: every frame is
 /// matched exhaustively (no prediction), the pose is the chain of PnP motions. Not the
 /// paper's method; kept to measure it. What a competent plain frame-to-frame VO does and

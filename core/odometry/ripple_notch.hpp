@@ -6,7 +6,7 @@
 /// the vehicle passes over them, by ~0.6 % of the vehicle's motion (docs/architecture.md, "Lit
 /// ripples"). Features and patches on that shading follow it, and every frame's cloud is the
 /// true one under the same body-fixed stretch: the motion comes out short along the wave
-/// vector (issue 4: -0.3 to -0.4 % along the track on ripples across it) and no registration
+/// vector (-0.3 to -0.4 % along the track on ripples across it) and no registration
 /// can see it. The albedo (grains, pebbles, rocks) does not move. The ripples' shading is
 /// narrow-band, one spatial frequency and its harmonic, while the albedo texture is broadband,
 /// so a notch at the spectrum's dominant peak removes most of the sliding part and little of
@@ -37,7 +37,7 @@ struct RippleNotchReport {
   double peak_ratio = 0;     ///< peak power / annulus median power
 };
 
-/// Keeps the DFT plans and buffers between frames (issue 8: frames after the first of a size
+/// Keeps the DFT plans and buffers between frames (frames after the first of a size
 /// allocate nothing; cv::dft would build its plan, and allocate, on every call).
 class RippleNotch {
  public:
