@@ -82,7 +82,7 @@ bool Daemon::start() {
   // of their log calls. Left to the first of the workers to log, the others' reads of the
   // logger were ordered only by the guard check of a function-local static inside
   // libspdlog, which is not instrumented: ThreadSanitizer reported a data race in
-  // spdlog::logger::log_ for every in-process daemon test (issue 9). seaviod's main() sets
+  // spdlog::logger::log_ for every in-process daemon test. seaviod's main() sets
   // its stderr logger before this; then this call only returns that logger.
   spdlog::default_logger_raw();
   if (!camera_ || !processor_) {
@@ -322,7 +322,7 @@ void Daemon::collectImu(int64_t up_to_ns, bool wait) {
 
 void Daemon::prepare(StereoFrame& f) {
   // Drivers may deliver colour or padded images; left and right are converted in
-  // parallel on the persistent pool (issue 6: no thread per frame).
+  // parallel on the persistent pool (no thread per frame).
   auto fix = [](cv::Mat& img) {
     if (img.type() == CV_8UC3) {
       cv::Mat g;
@@ -406,7 +406,7 @@ void Daemon::publishPose(PoseItem& p) {
     // The map's answer for this frame comes later from the ICP thread (same seq).
     msg.flags = (msg.flags & ~kMapFlags) | kLocalOnly;
   }
-  // Per-frame stage split on the pose itself (issue 7), so `seavio profile` gets exact
+  // Per-frame stage split on the pose itself, so `seavio profile` gets exact
   // p90/max per stage, which the status histograms cannot give.
   drivers::setPoseTiming(msg, p.result.times, p.recv_ns, p.proc_end_ns, now);
   if (!bus_->publish(cfg_.lcm.pose_channel, msg)) {

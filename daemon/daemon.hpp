@@ -1,10 +1,10 @@
 #pragma once
-/// seaviod's pipeline (issue 6): one object owning the sources, rings and threads.
+/// seaviod's pipeline: one object owning the sources, rings and threads.
 ///
 ///   camera thread --FrameRing--> estimator thread --SpscRing--> publisher thread --> LCM
 ///   IMU thread ----SpscRing----^      (worker pool: left/right preparation)
 ///   status thread: status_t at 1 Hz, sd_notify STATUS= / WATCHDOG=1
-///   ICP thread (odometry mode global with a GlobalStage, issue 8):
+///   ICP thread (odometry mode global with a GlobalStage):
 ///     estimator --request ring--> ICP thread --correction ring--> estimator (next frame)
 ///                                     `--> LCM: the frame's refined pose (FLAG_GLOBAL_REFINED)
 ///
@@ -41,7 +41,7 @@ int64_t monotonicNowNs();
 
 class Daemon;
 
-/// The global map step on its own persistent thread (issues 6 and 8): the odometry's
+/// The global map step on its own persistent thread: the odometry's
 /// GlobalLink (give it as OdometryParams::global_link), then handed to the Daemon, which runs
 /// the ICP thread. The estimator submits each frame's request into a fixed-capacity SPSC ring
 /// (full: skipped and counted, never waits, see RingCapacities::global_requests) and drains
@@ -126,7 +126,7 @@ class Daemon {
   std::string summary() const;
   /// One-line summary for sd_notify STATUS=.
   std::string shortStatus() const;
-  /// How each thread was scheduled (daemon.realtime, issue 8), one entry per thread or
+  /// How each thread was scheduled (daemon.realtime), one entry per thread or
   /// worker as it started: "estimator: SCHED_FIFO 10", or why a setting was refused.
   std::vector<std::string> schedulingReport() const;
   /// False if any requested scheduling or memory lock was refused (see schedulingReport()).

@@ -28,7 +28,7 @@ class Reader {
       return;
     }
     for (const auto& kv : node) {
-      // A list or map as key has no name to report ("daemon.: unknown key" before): say where.
+      // A list or map as key has no name to report ("daemon.: unknown key"): say where.
       if (!kv.first.IsScalar()) {
         error(prefix, "a key must be a plain name (line " + std::to_string(kv.first.Mark().line + 1) + ")");
         continue;

@@ -1,6 +1,6 @@
 #pragma once
 /// The `daemon:` section of config/seavio.yaml: drivers, LCM, rings, threads, watchdog and
-/// time offset. Loaded and validated before any device is opened (issue 6, issue 9).
+/// time offset. Loaded and validated before any device is opened.
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -111,14 +111,14 @@ struct DaemonConfig {
   /// at the frame time) unless the newest sample is at most this much older than the frame
   /// [ms]; then the odometry holds that sample's rates up to the frame time. 0 = always wait
   /// (deterministic replay: the same IMU hand-over as `seavio run`). Live with a 200 Hz IMU,
-  /// 5 saves up to 5 ms of every frame's latency (issue 8; cost in docs/benchmarks.md).
+  /// 5 saves up to 5 ms of every frame's latency (cost in docs/benchmarks.md).
   int imu_hold_ms = 0;
   /// Odometry mode global only: run the global step (revisit re-observation, ICP against the
-  /// map, keyframe insertion) on its own thread (issue 8). The local pose of every frame goes
+  /// map, keyframe insertion) on its own thread. The local pose of every frame goes
   /// out at once flagged FLAG_LOCAL_ONLY, the refined one when the ICP thread is done, flagged
   /// FLAG_GLOBAL_REFINED (same seq). false: inline in the estimator, one pose per frame.
   bool global_thread = true;
-  /// Thread scheduling and memory locking of the frame path (issue 8, daemon/realtime.hpp).
+  /// Thread scheduling and memory locking of the frame path (daemon/realtime.hpp).
   RealtimeConfig realtime;
 };
 

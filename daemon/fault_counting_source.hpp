@@ -1,5 +1,5 @@
 #pragma once
-/// How each device driver's own fault counters fold into the daemon's status fields (issue 9),
+/// How each device driver's own fault counters fold into the daemon's status fields,
 /// and the source wrapper that keeps a copy of them for the status thread. Used by
 /// daemon/source_factory.cpp for every live driver, and by the fault tests on the same drivers
 /// built from a file descriptor (tests/daemon/daemon_faults_test.cpp).

@@ -23,7 +23,7 @@ class FrameProcessor {
   virtual OdometryResult process(const StereoFrame& frame, std::span<const ImuSample> imu) = 0;
   virtual std::string name() const = 0;
   /// Runs `fn` once on each thread the processor owns (none by default), so the daemon can
-  /// give its workers the frame path's scheduling (issue 8). False if that failed.
+  /// give its workers the frame path's scheduling. False if that failed.
   virtual bool runOnWorkerThreads(const std::function<void()>& fn) {
     (void)fn;
     return true;

@@ -1,5 +1,5 @@
 #pragma once
-/// Health counters and per-stage latency histograms of the daemon (issues 6, 7, 9).
+/// Health counters and per-stage latency histograms of the daemon.
 /// Written by the pipeline threads with relaxed atomics, read by the status thread.
 #include <array>
 #include <atomic>
@@ -16,12 +16,12 @@ namespace seavio::daemon {
 /// "queue" is acquisition to estimator start, "process" the estimator call, "publish"
 /// estimator end to LCM publish, "end_to_end" acquisition to publish (all daemon clock),
 /// "capture_to_publish" the frame's capture stamp to publish when the source stamps on
-/// the daemon's monotonic clock. With the global step on its own thread (issue 8):
+/// the daemon's monotonic clock. With the global step on its own thread:
 /// "global_queue" request submitted to refinement start, "global" the refinement itself,
 /// "refined_end_to_end" acquisition to the refined pose's publication and
 /// "refined_capture_to_publish" its capture stamp to publication (same clock condition).
 /// "imu_wait": inside "process", the estimator waiting for the IMU samples that reach the
-/// frame's time (issue 8: at 200 Hz up to 5 ms of every frame, see DaemonConfig::imu_hold_ms).
+/// frame's time (at 200 Hz up to 5 ms of every frame, see DaemonConfig::imu_hold_ms).
 enum class Stage : int {
   kRectify, kFeatures, kStereo, kTemporal, kTensor, kIcp,
   kQueue, kProcess, kPublish, kEndToEnd, kCaptureToPublish,
@@ -50,7 +50,7 @@ struct HealthCounters {
   std::atomic<uint64_t> processing_failures{0};
   std::atomic<uint64_t> publish_failures{0};
   std::atomic<uint64_t> imu_only_frames{0};
-  /// Of the IMU-only frames (issue 5): coasted with the leak the last steady fixes agree on,
+  /// Of the IMU-only frames: coasted with the leak the last steady fixes agree on,
   /// and coasted uncorrected with only the covariance widened because they disagreed
   /// (OdometryResult::coasting; countImuOnly). Not on LCM: status_t keeps its version.
   std::atomic<uint64_t> imu_only_leak_corrected{0};
@@ -89,7 +89,7 @@ inline void countImuOnly(HealthCounters& h, const OdometryResult& r) {
   if (r.coasting == CoastingCorrection::kCovarianceOnly) h.imu_only_covariance_only++;
 }
 
-/// Faults a driver counts itself below the CameraSource/ImuSource interface (issue 9):
+/// Faults a driver counts itself below the CameraSource/ImuSource interface:
 /// reconnects, unpaired or corrupt frames, protocol errors. Folded into status_t.
 struct DriverFaults {
   uint64_t camera_reconnects = 0;       ///< camera reopened after it vanished

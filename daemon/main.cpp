@@ -1,4 +1,4 @@
-// seaviod: the real-time daemon (issue 6). All state lives in one Daemon owned here; signals
+// seaviod: the real-time daemon. All state lives in one Daemon owned here; signals
 // arrive through a signalfd, so there is no global state and no async-signal handler at all.
 #include <poll.h>
 #include <signal.h>

@@ -1,7 +1,7 @@
 #pragma once
 /// The production estimator stage: core's stereo visual odometry (paper Sec. III) behind the
 /// daemon's FrameProcessor interface. With two or more feature threads the left and right
-/// images are detected and described in parallel (issue 8): the right one on a persistent
+/// images are detected and described in parallel: the right one on a persistent
 /// worker, the left one on the calling (estimator) thread. Core stays single-threaded: the
 /// processor drives Frontend's per-image calls and hands the result to Odometry::track.
 ///
@@ -44,7 +44,7 @@ class OdometryProcessor : public FrameProcessor {
   /// Output identical for any `feature_threads`: only the order of independent work changes.
   OdometryResult process(const StereoFrame& frame, std::span<const ImuSample> imu) override {
     if (!pool_) return odo_.process(frame, imu);
-    // Into the buffers of an earlier frame, which track() hands back (issue 8).
+    // Into the buffers of an earlier frame, which track() hands back.
     extractParallel(frame, imu, spare_);
     return odo_.track(std::move(spare_), imu);
   }
@@ -84,7 +84,7 @@ class OdometryProcessor : public FrameProcessor {
     const double threshold = f.detector_threshold;
     const float steer_deg = odo_.descriptorSteeringDeg(frame.t_ns, imu);
     // The right image's job reads its inputs from here (set once per frame: posting it
-    // allocates nothing, issue 8).
+    // allocates nothing).
     right_ = RightInput{&frame, threshold, steer_deg, &f.right};
     const bool posted = pool_->post(right_job_);
     try {

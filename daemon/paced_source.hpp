@@ -1,7 +1,7 @@
 #pragma once
 /// Real-time (or N x) pacing of replayed sources: a sample stamped t is released when
 /// (t - t_first) / speed has elapsed on the daemon clock since the first sample, with camera
-/// and IMU sharing one ReplayClock so their relative timing is kept (issue 7).
+/// and IMU sharing one ReplayClock so their relative timing is kept.
 #include <chrono>
 #include <cstdint>
 #include <memory>

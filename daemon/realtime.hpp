@@ -1,5 +1,5 @@
 #pragma once
-/// Scheduling of seaviod's threads (issue 8: end-to-end latency tail).
+/// Scheduling of seaviod's threads (end-to-end latency tail).
 ///
 /// Two roles. The frame path (camera, IMU, estimator, its feature worker, pose publisher)
 /// must never wait for a core behind anything else; the background (the global map ICP

@@ -1,5 +1,5 @@
 #pragma once
-/// Every ring buffer capacity of seaviod in one place (issue 6), overridable from the
+/// Every ring buffer capacity of seaviod in one place, overridable from the
 /// `daemon.rings` section of the config.
 #include <cstddef>
 

@@ -1,6 +1,6 @@
 #pragma once
 /// Classifies each new timestamp of a stream against the previous accepted one, so the
-/// daemon counts out-of-order, duplicate and jumping timestamps (issue 9) instead of
+/// daemon counts out-of-order, duplicate and jumping timestamps instead of
 /// feeding them to the estimator.
 #include <cstdint>
 
@@ -22,7 +22,7 @@ class TimestampMonitor {
   /// @param max_gap_ns a step larger than this counts as a gap [ns]
   /// @param restart_after this many consecutive increasing out-of-order stamps re-anchor the
   ///        stream (kRestart), so one stamp an hour ahead or a device clock reset costs a few
-  ///        samples instead of rejecting every later one (issue 9)
+  ///        samples instead of rejecting every later one
   explicit TimestampMonitor(int64_t max_gap_ns, int restart_after = 3)
       : max_gap_ns_(max_gap_ns), restart_after_(restart_after) {}
   /// Checks `t_ns` and, unless rejected, makes it the new reference.

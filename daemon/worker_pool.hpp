@@ -1,10 +1,10 @@
 #pragma once
 /// Persistent worker threads, fixed at construction, running submitted jobs; each job
-/// returns a std::future so callers wait for completion with a timeout (issue 6: no
+/// returns a std::future so callers wait for completion with a timeout (no
 /// thread is started per frame). Used to process the left and right images in parallel.
 ///
 /// Header-only so that `seavio run` (tools/sequence_runner.cpp, also compiled into tool
-/// tests that do not link seavio_daemon) shares this pool with the daemon (issue 8).
+/// tests that do not link seavio_daemon) shares this pool with the daemon.
 #include <algorithm>
 #include <chrono>
 #include <condition_variable>
@@ -22,7 +22,7 @@
 
 namespace seavio::daemon {
 
-/// A job posted to a WorkerPool again and again without allocating (issue 8: no allocation on
+/// A job posted to a WorkerPool again and again without allocating (no allocation on
 /// the per-frame path; submit() allocates its std::function, packaged_task state and result
 /// every call). The callable is set once; WorkerPool::post() queues a run, wait() blocks until
 /// it finished and rethrows what it threw. One run in flight at a time; the job must outlive

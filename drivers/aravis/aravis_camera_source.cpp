@@ -252,7 +252,7 @@ ReadStatus AravisCameraSource::read(StereoFrame& out, std::chrono::milliseconds 
   while (true) {
     // Collect what arrived first, then judge silence: when this thread comes back late (a
     // slow start, a loaded machine, a sanitizer build), frames already waiting in a stream's
-    // queue must count, or a live camera is declared silent and torn down (issue 9: under
+    // queue must count, or a live camera is declared silent and torn down (under
     // TSan the end-to-end runs began with such a reconnect at the camera thread's first read,
     // which came more than reconnect_after_ms after the camera was opened).
     auto handle = [&](Camera& c, ArvBuffer* b) {

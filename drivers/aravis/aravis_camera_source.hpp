@@ -39,7 +39,7 @@ struct AravisCameraConfig {
   DeviceClockConfig clock;
 };
 
-/// Faults of the camera pair (issue 9), also logged with spdlog.
+/// Faults of the camera pair, also logged with spdlog.
 struct AravisFaults {
   uint64_t frames_dropped = 0;   ///< device frame-id gaps + unpaired frames
   uint64_t unpaired_frames = 0;  ///< part of frames_dropped: no partner within tolerance

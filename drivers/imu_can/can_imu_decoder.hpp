@@ -18,7 +18,7 @@ struct CanImuMeasurement {
   Eigen::Vector3d accel_m_s2 = Eigen::Vector3d::Zero();
 };
 
-/// Counters of what the decoder saw (issue 9 fault cases).
+/// Counters of what the decoder saw (its fault cases).
 struct CanDecoderStats {
   uint64_t frames = 0;              ///< data frames looked at
   uint64_t samples = 0;             ///< complete measurements produced

@@ -21,7 +21,7 @@ struct CanImuConfig {
   DeviceClockConfig clock;  ///< device-to-monotonic mapping and camera-to-IMU offset
 };
 
-/// Faults seen on the bus (issue 9); each is logged when first counted per read.
+/// Faults seen on the bus; each is logged when first counted per read.
 struct CanImuFaults {
   uint64_t can_error_frames = 0;
   uint64_t bus_off = 0;

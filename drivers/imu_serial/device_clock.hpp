@@ -1,5 +1,5 @@
 #pragma once
-/// Maps a device's own timestamps onto the process' monotonic clock (issue 6, "Time").
+/// Maps a device's own timestamps onto the process' monotonic clock.
 /// Header-only so every driver (serial, CAN, Aravis, V4L2) shares one rule.
 #include <time.h>
 
@@ -32,8 +32,8 @@ struct DeviceClockConfig {
 /// host - device difference is an upper bound on the true offset, and the smallest one
 /// is the best estimate at any time, not only during the first samples: a camera that
 /// reconnects while the machine is loaded and whose first frames arrive late is corrected
-/// by its first prompt frame (issue 9: a too-high offset used to stay for a whole drift
-/// window, ~200 s, and left the stereo pair unpaired). Clocks drift apart, so an old
+/// by its first prompt frame (otherwise a too-high offset stays for a whole drift
+/// window, ~200 s, and leaves the stereo pair unpaired). Clocks drift apart, so an old
 /// minimum is only a bound after adding the largest drift since then: a sample whose
 /// difference is at most the last minimum + max_drift_ppm * device time since it is the
 /// new minimum and sets the offset. The offset holds in between, so mapped times keep the

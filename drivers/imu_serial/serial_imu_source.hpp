@@ -26,7 +26,7 @@ struct SerialImuConfig {
   int reopen_interval_ms = 500;
 };
 
-/// Faults seen by the serial IMU (issue 9); each is also logged with spdlog.
+/// Faults seen by the serial IMU; each is also logged with spdlog.
 struct SerialImuFaults {
   uint64_t checksum_errors = 0;
   uint64_t garbage_bytes = 0;

@@ -1,6 +1,6 @@
 #pragma once
 /// Converts a loaded dataset (EuRoC/ASL, KITTI, simulator output) to an LCM log of raw
-/// sensor messages, timestamps preserved (issue 7, `seavio log`). Replaying the log with
+/// sensor messages, timestamps preserved (`seavio log`). Replaying the log with
 /// lcm-logplayer into a daemon configured with camera/imu driver "lcm" feeds it the same data.
 #include <cstdint>
 #include <string>

@@ -15,7 +15,7 @@ namespace seavio::drivers {
 /// by the identity pose, zero velocity and a huge covariance, and the IMU-only flag is set.
 seavio_lcm::pose_t toPoseMsg(const OdometryResult& r, int64_t publish_t_ns);
 
-/// Fills the version-2 timing fields of `m` (issue 7): `recv_t_ns` and the per-stage
+/// Fills the version-2 timing fields of `m`: `recv_t_ns` and the per-stage
 /// latencies [ms] named in seavio_pose_t.lcm. All stamps on the daemon's monotonic clock [ns];
 /// `times` is the odometry's own split (StageTimes, total 0 = not measured: those stages are
 /// left out). "acquisition" is added only when m.t_ns is on the same clock (0..10 s before

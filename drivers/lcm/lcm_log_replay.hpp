@@ -1,6 +1,6 @@
 #pragma once
 /// One channel of an LCM log file, read for a replay source the way lcm-logplayer would play
-/// it (issue 7), with damage reported instead of silently ending the log:
+/// it, with damage reported instead of silently ending the log:
 ///  - a clean end of the file is end-of-stream;
 ///  - a corrupt region, a truncated tail, and the first event on each unknown channel are
 ///    each reported once as an error (lastReport() names the file, byte offset and event),

@@ -2,7 +2,7 @@
 /// Event-by-event reader of LCM log files (lcm-logger format) that survives damage: a corrupt
 /// region is skipped to the next valid event, a truncated tail ends the scan, and each
 /// incident is recorded with its byte offset and the number of the last good event
-/// (issue 7: replay and the tools report damage and go on).
+/// (replay and the tools report damage and go on).
 ///
 /// Parsed here rather than through lcm::LogFile because lcm's reader cannot say whether it
 /// stopped at a clean end or at a truncated event, never reports skipped bytes, and trusts

@@ -1,7 +1,7 @@
 #pragma once
 /// Camera and IMU sources fed by LCM messages (seavio_lcm::stereo_t / imu_t), so a running
-/// daemon takes its input from `lcm-logplayer` or another process exactly as from a driver
-/// (issue 7). Each source owns its own LCM instance and is read by one thread.
+/// daemon takes its input from `lcm-logplayer` or another process exactly as from a driver.
+/// Each source owns its own LCM instance and is read by one thread.
 ///
 /// URL "udpm://...": live messages. Add `recv_buf_size=BYTES` to the URL for raw stereo: a
 /// 640 x 480 pair is ~600 kB of UDP fragments, more than Linux's default socket buffer

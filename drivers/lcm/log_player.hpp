@@ -1,6 +1,6 @@
 #pragma once
 /// Plays an LCM log onto a bus like lcm-logplayer, and can loop it for a long soak test
-/// (issue 7, `seavio log --play`): on every pass after the first, stereo_t and imu_t are
+/// (`seavio log --play`): on every pass after the first, stereo_t and imu_t are
 /// re-stamped (t_ns shifted by the log's span plus 0.1 s, stereo seq continued) so the
 /// daemon sees one continuous, monotonic sensor stream instead of time jumping back.
 /// Damage in the log is skipped (LcmLogScanner) and counted.

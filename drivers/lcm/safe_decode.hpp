@@ -1,6 +1,6 @@
 #pragma once
 /// Decoding of LCM messages that come from outside (the vehicle network, a log file) without
-/// trusting their length fields (issue 9).
+/// trusting their length fields.
 ///
 /// lcm-gen's C++ decoders resize arrays to the length the message declares before checking it
 /// against the payload: a negative length throws std::length_error (inside LCM's dispatch loop
