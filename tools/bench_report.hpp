@@ -1,5 +1,5 @@
 #pragma once
-/// Figures and tables of `seavio bench` (issues 5 and 8): the paper's Tables I and II with
+/// Figures and tables of `seavio bench`: the paper's Tables I and II with
 /// the paper's own numbers beside ours, the scaled paper survey, and resident memory.
 #include <cstdint>
 #include <optional>
@@ -81,7 +81,7 @@ void printTableII(std::ostream& os, const std::vector<BenchRun>& runs);
 /// Memory per run: resident size and map size per 1000 frames.
 void printMemory(std::ostream& os, const std::vector<BenchRun>& runs);
 
-/// One line of `seavio bench stages`: a stage's per-call figures against the issue 8 goal.
+/// One line of `seavio bench stages`: a stage's per-call figures against its goal.
 struct StageRow {
   std::string stage;
   Percentiles ms;
@@ -140,7 +140,7 @@ struct LineFit {
 /// Fit over the pairs (x[i], y[i]); n = 0 and zeros with fewer than two points or no spread in x.
 LineFit fitLine(const std::vector<double>& x, const std::vector<double>& y);
 
-/// One frame of a run, for the issue 8 scaling plots. Stage times are in the clock the run
+/// One frame of a run, for the scaling plots. Stage times are in the clock the run
 /// timed its stages with (`seavio bench scaling`: the thread's CPU clock, one thread).
 struct FrameTimeRow {
   int frame = 0;

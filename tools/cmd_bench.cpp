@@ -1,6 +1,6 @@
-// `seavio bench`: the paper's Tables I and II end to end (issue 5), per-stage timing against
-// the issue 8 goals, how the per-frame time scales with survey length and feature count, and
-// what vision-loss stretches of rendered surveys cost (issue 9), in process.
+// `seavio bench`: the paper's Tables I and II end to end, per-stage timing against
+// the latency goals, how the per-frame time scales with survey length and feature count, and
+// what vision-loss stretches of rendered surveys cost, in process.
 #include <filesystem>
 #include <fstream>
 #include <iostream>

@@ -27,7 +27,7 @@ int runEval(const EvalOptions& o) {
   try {
     gt = drivers::readTrajectory(o.gt);
     if (isLcmLog(o.est)) {
-      // The daemon's output as recorded by lcm-logger (issue 7); damage is reported, not fatal.
+      // The daemon's output as recorded by lcm-logger; damage is reported, not fatal.
       const DaemonOutputLog log = readDaemonOutputLog(o.est, o.pose_channel);
       if (log.stats.damaged()) spdlog::warn("{}", describeDamage(log.stats, o.est));
       for (const auto& [channel, n] : log.stats.other_channels)

@@ -1,6 +1,6 @@
 // `seavio log`: converts a dataset (EuRoC/ASL, KITTI, simulator output) into an LCM log of raw
 // stereo and IMU messages, timestamps preserved, so it can be replayed into seaviod with
-// lcm-logplayer or the daemon's LCM sources (issue 7). `seavio log --play` plays such a log
+// lcm-logplayer or the daemon's LCM sources. `seavio log --play` plays such a log
 // like lcm-logplayer, and can loop it re-stamped for hours (scripts/soak.sh).
 #include <iostream>
 #include <optional>

@@ -1,5 +1,5 @@
 // `seavio profile`: where each millisecond of the frame budget went, from the pose and status
-// messages of a seaviod run recorded with lcm-logger (issue 7).
+// messages of a seaviod run recorded with lcm-logger.
 #include <iostream>
 
 #include <spdlog/spdlog.h>

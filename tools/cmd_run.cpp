@@ -57,7 +57,7 @@ std::vector<eval::TimedPose> runImuOnly(const drivers::Dataset& ds, std::size_t 
   return out;
 }
 
-/// The comparison baseline of issue 4: OpenCV SIFT, exhaustive matching, PnP-RANSAC, no IMU.
+/// The comparison baseline: OpenCV SIFT, exhaustive matching, PnP-RANSAC, no IMU.
 std::vector<eval::TimedPose> runPnpBaseline(const drivers::Dataset& ds, std::size_t n,
                                             odometry::OdometryParams params, RunStats& stats) {
   std::string error;
@@ -115,7 +115,7 @@ int run(const RunOptions& o) {
     if (!o.stats.empty()) stats.writeJson(o.stats);
   } else {
     const SequenceRun seq = runSequence(ds, params, n, [&](std::size_t i, const OdometryResult& r) {
-      // Issue 8's memory goal is stated per 1000 frames: sample the resident size there.
+      // The memory goal is stated per 1000 frames: sample the resident size there.
       if ((i + 1) % 1000 == 0 || i + 1 == n)
         if (const auto rss = residentMemoryMb()) stats.addMemorySample(i + 1, *rss);
       if (!o.quiet && (i % 100 == 0 || i + 1 == n))

@@ -1,4 +1,4 @@
-// `seavio simulate`: render a synthetic stereo-inertial survey in the EuRoC/ASL layout (issue 3).
+// `seavio simulate`: render a synthetic stereo-inertial survey in the EuRoC/ASL layout.
 #include <unistd.h>
 
 #include <algorithm>
@@ -126,13 +126,13 @@ const RegisterCommand kRegister{"simulate", [](CLI::App& app) {
   // The model sets all four densities; the walk options then override its walks.
   cmd->add_option("--imu-model", opts->imu_model,
                   "IMU noise: adis16448 (default; bias walks as its datasheet's in-run stability) | "
-                  "euroc-kalibr (EuRoC's inflated Kalibr walks, the presets' IMU until stop 34)");
+                  "euroc-kalibr (EuRoC's inflated Kalibr walks: a stress model)");
   cmd->add_option("--accel-random-walk", opts->accel_random_walk,
                   "accelerometer bias random walk [m/s^3/sqrt(Hz)] (default: the model's, adis16448 4e-5)");
   cmd->add_option("--gyro-random-walk", opts->gyro_random_walk,
                   "gyroscope bias random walk [rad/s^2/sqrt(Hz)] (default: the model's, adis16448 2e-6)");
   cmd->add_option("--imu-lead-s", opts->imu_lead_s,
-                  "IMU samples before the first frame, vehicle parked [s] (default 1; 0: renders before stop 33)");
+                  "IMU samples before the first frame, vehicle parked [s] (default 1; 0: the IMU starts at the first frame)");
   cmd->add_option("--frame-rate", opts->frame_rate, "camera frame rate [Hz]");
   cmd->add_option("--altitude", opts->altitude, "altitude above the seafloor [m]");
   cmd->add_option("--speed", opts->speed, "cruise speed [m/s]");

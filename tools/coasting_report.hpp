@@ -1,5 +1,5 @@
 #pragma once
-/// Coasting figures of one vision-loss stretch (issue 9): how the position error, its flag and
+/// Coasting figures of one vision-loss stretch: how the position error, its flag and
 /// its covariance grow while the odometry dead-reckons on the IMU, and how it recovers. Errors
 /// are relative to the last frame before the loss, in that frame's body axes, so they measure
 /// only what the loss adds (not the drift before it) and need no alignment of the world frames.

@@ -1,6 +1,6 @@
 #pragma once
 /// Reading seaviod's output back from an LCM log (lcm-logger format): pose_t and status_t
-/// messages, with damage counted instead of fatal (issue 7: `seavio eval --est X.lcmlog`,
+/// messages, with damage counted instead of fatal (`seavio eval --est X.lcmlog`,
 /// `seavio profile`).
 #include <cstdint>
 #include <map>

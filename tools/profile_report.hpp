@@ -1,5 +1,5 @@
 #pragma once
-/// Latency profile of a seaviod run from its LCM output log (issue 7, `seavio profile`).
+/// Latency profile of a seaviod run from its LCM output log (`seavio profile`).
 ///
 /// What the messages carry decides what can be measured:
 ///  - every pose_t has the frame's capture stamp `t_ns`, its publication time `publish_t_ns`

@@ -122,7 +122,7 @@ void RunStats::printTable(std::ostream& os, PaperVariant variant) const {
                     percentile(feat, 50), percentile(stereo, 50), percentile(temporal, 50), percentile(inliers, 50),
                     losses.imu_only_frames);
   if (losses.imu_only_frames > 0) {
-    // Which losses the coasting corrected and how (issue 5): frames (outages) per kind.
+    // Which losses the coasting corrected and how: frames (outages) per kind.
     os << fmt::format(" in {} outages:", losses.outages);
     for (int k = 1; k < LossCounts::kKinds; ++k) {
       const auto c = static_cast<CoastingCorrection>(k);
@@ -173,7 +173,7 @@ void RunStats::writeJson(const std::string& path) const {
               f.quality.icp_inliers, f.quality.icp_rms_m, f.quality.model_points, f.quality.detector_threshold,
               f.times.rectify_ms, f.times.features_ms, f.times.stereo_ms, f.times.temporal_ms, f.times.tensor_ms,
               f.times.icp_ms, f.times.total_ms);
-    // What corrected an IMU-only frame's coasting (issue 5; "none" on visual frames).
+    // What corrected an IMU-only frame's coasting ("none" on visual frames).
     os << fmt::format(", \"coasting\": \"{}\"", coastingName(f.coasting));
     os << fmt::format(", \"guided_tracks\": {}, \"patch_ms\": {:.3f}", f.quality.guided_tracks, f.times.patch_ms);
     os << fmt::format(", \"stereo_completed\": {}", f.quality.stereo_completed);

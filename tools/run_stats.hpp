@@ -10,7 +10,7 @@
 
 namespace seavio::tools {
 
-/// Process resident size sampled during a run (issue 8's memory goal).
+/// Process resident size sampled during a run (for the memory goal of `seavio bench`).
 struct MemorySample {
   std::size_t frames = 0;  ///< frames processed when sampled
   double rss_mb = 0;       ///< VmRSS [MiB]
@@ -20,7 +20,7 @@ struct MemorySample {
 /// "covariance_only", "no_imu", "held").
 const char* coastingName(CoastingCorrection c);
 
-/// The vision losses of a run (issue 5 observability): IMU-only frames, and outages (runs of
+/// The vision losses of a run: IMU-only frames, and outages (runs of
 /// consecutive IMU-only frames), each by what corrected its coasting (an outage by its first
 /// frame's, which the odometry holds for the whole stretch).
 struct LossCounts {

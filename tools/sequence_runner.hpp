@@ -35,7 +35,7 @@ struct SequenceRun {
 /// Monotonic wall clock [ns] (std::chrono::steady_clock), the clock the stage times use.
 int64_t monotonicNowNs();
 /// CPU time of the calling thread [ns] (CLOCK_THREAD_CPUTIME_ID): stage times that do not
-/// count waiting for a core on a loaded machine (issue 8 scaling plots).
+/// count waiting for a core on a loaded machine (`seavio bench scaling`).
 int64_t threadCpuNowNs();
 
 /// Runs the odometry over the first `max_frames` frames of `ds` (0 = all), handing each frame
@@ -43,7 +43,7 @@ int64_t threadCpuNowNs();
 /// (the odometry interpolates, it does not double-count). Deterministic for a given `params`,
 /// and identical for any `feature_threads`: 1 extracts left and right features in turn, 2
 /// (default) the right image on a persistent worker while the left runs on the caller,
-/// through the daemon's OdometryProcessor (issue 8).
+/// through the daemon's OdometryProcessor.
 /// `stage_clock` times the stages (OdometryResult::times); it changes no estimate.
 /// Throws drivers::InputError naming the dataset if it has no frames or its calibration
 /// cannot be rectified, and whatever drivers::loadFrame throws for an unreadable image.

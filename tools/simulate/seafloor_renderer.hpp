@@ -24,7 +24,7 @@ class SeafloorRenderer {
 
   /// Renders camera `cam` (0 left, 1 right) with the body at `T_W_B` at trajectory time
   /// `t_s` [s] into `image` (CV_8UC1, width x height of the rig). `noise_key` selects the
-  /// sensor-noise pattern (same key, same image); `condition` takes vision away (issue 9).
+  /// sensor-noise pattern (same key, same image); `condition` takes vision away.
   /// Rows are shaded in parallel; the image does not depend on the number of threads.
   /// Returns the number of snow particles drawn.
   int render(int cam, const Eigen::Isometry3d& T_W_B, double t_s, uint64_t noise_key, cv::Mat& image,

@@ -55,7 +55,7 @@ SimConfig presetConfig(const std::string& name) {
     if (name == "short-outage")  // on the first leg, then on the way back after the turn
       c.vision_loss.stretches = {{VisionLoss::kBlackout, 20.0, 3.0}, {VisionLoss::kTurbidity, 50.0, 3.0}};
   } else if (name == "revisit") {
-    // The memory proof of issue 8: short-plain's box (two 40 m lanes 8 m apart) flown for
+    // Memory follows the area, not the time: short-plain's box (two 40 m lanes 8 m apart) flown for
     // 10,000 frames at 10 Hz (~1 km). The first ~800 frames map new ground; the lanes then
     // bounce 0, 1, 0, ... so most of the rest (all but the turns at the start end) flies over
     // ground already mapped. Identical

@@ -1,5 +1,5 @@
 #pragma once
-/// Parameters of a synthetic survey (`seavio simulate`, issue 3): rig, trajectory, seafloor,
+/// Parameters of a synthetic survey (`seavio simulate`): rig, trajectory, seafloor,
 /// lights, marine snow and IMU. Plain structs with defaults; presets fill them in.
 #include <array>
 #include <cstdint>
@@ -85,7 +85,7 @@ struct SnowConfig {
   double min_range_m = 0.3;          ///< particles closer than this are out of focus: skipped
 };
 
-/// What takes vision away during a stretch of the sequence (issue 9). Ground truth and IMU
+/// What takes vision away during a stretch of the sequence. Ground truth and IMU
 /// are unaffected: only the images change.
 enum class VisionLoss {
   kNone,
@@ -123,7 +123,7 @@ VisionLossStretch parseVisionLoss(const std::string& text);
 ///    bias stability (14.5 deg/h, 0.25 mg).
 ///  - "euroc-kalibr": the walks of EuRoC's Kalibr sensor.yaml as well (1.9393e-5, 3e-3), which
 ///    are inflated for estimator robustness: as a truth model they wander 240 deg/h and 18 mg
-///    over an hour, 16x and 72x the datasheet. The presets' IMU until stop 34; a stress model.
+///    over an hour, 16x and 72x the datasheet: a stress model.
 /// Throws std::invalid_argument naming the valid models.
 imu::ImuNoise imuModel(const std::string& name);
 std::vector<std::string> imuModelNames();

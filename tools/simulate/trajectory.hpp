@@ -1,6 +1,6 @@
 #pragma once
 /// Smooth (C2) survey trajectory of the body B in W with analytic velocity, acceleration and
-/// body rate, so the simulated IMU integrates back to the ground truth (issue 3).
+/// body rate, so the simulated IMU integrates back to the ground truth.
 #include <vector>
 
 #include <Eigen/Core>
