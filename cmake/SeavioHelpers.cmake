@@ -21,7 +21,7 @@ endif()
 # ASan's use-after-scope check poisons and unpoisons the shadow of every stack variable at each
 # scope's entry and exit. The pose solvers evaluate small fixed-size Eigen expressions per point
 # per iteration, with hundreds of stack temporaries per call, so the check made them ~25x slower
-# than Release (GyroBiasTilt.* 2.5 s -> 75 s) and made their end-to-end tests the ASan phase's
+# than Release and made their end-to-end tests the ASan phase's
 # long pole. In these Eigen-heavy modules only, it is off: 3x faster there, all other ASan and
 # UBSan checks (heap, stack and global overflows, use after free, leaks, undefined behaviour)
 # stay on; every other target (features, camera, drivers, daemon, tools, tests) keeps it.

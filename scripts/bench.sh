@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Builds and runs every Google Benchmark binary (tests/bench/*_bench.cpp) and `seavio bench
-# stages` (issue 8). Results go to stdout and to $OUT (default bench-results/).
+# stages`. Results go to stdout and to $OUT (default bench-results/).
 #   scripts/bench.sh                 all benchmarks, stage table over 60 frames
 #   SEAVIO_BENCH_FILTER=Icp scripts/bench.sh   only benchmarks matching a regex
 # Environment: SEAVIO_BUILD_DIR (default build), SEAVIO_JOBS (default 2), OUT,

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Instruction counts (callgrind Ir) of the hot paths on fixed synthetic input (issue 8), so a
+# Instruction counts (callgrind Ir) of the hot paths on fixed synthetic input, so a
 # speed-up is visible on a loaded machine where wall-clock benchmarks wander. Each stage runs
 # once in bench/hotpaths with instrumentation on only around the stage; one summary line per
 # stage with its heap allocations (calls of malloc, calloc, realloc, posix_memalign,

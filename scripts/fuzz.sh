@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# One-command libFuzzer runs (issue 9, "Bad input tried").
+# One-command libFuzzer runs.
 #   scripts/fuzz.sh smoke [SECONDS]   build the fuzz targets (clang, build-fuzz) and run each for
 #                                     SECONDS (default 20) over its committed seed corpus, SEAVIO_JOBS
 #                                     targets side by side: the CI job

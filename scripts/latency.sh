@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Daemon latency under real-time replay (issue 8): seaviod replays a recorded 640 x 480,
+# Daemon latency under real-time replay: seaviod replays a recorded 640 x 480,
 # 15 fps stereo + IMU log itself (`daemon.lcm.input_url: file://LOG?speed=1`, the camera and
 # IMU drivers `lcm`, live settings: drain_to_newest true, backpressure false), publishes its
 # poses and status over UDP multicast inside a private network namespace, lcm-logger

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# One-command sanitizer run (issue 9); .ci/run calls both modes.
+# One-command sanitizer run; .ci/run calls both modes.
 #   scripts/sanitize.sh address   ASan+UBSan build in build-asan, whole ctest suite
 #   scripts/sanitize.sh thread    TSan build in build-tsan of the daemon and LCM test executables
 #                                 (and the seaviod they run), every test in them but one (below)
@@ -54,7 +54,7 @@ case "$mode" in
     # longer write shadow memory. Every GVSP packet Aravis copied into a frame buffer was
     # otherwise checked against our instrumented reads of that buffer and reported (then
     # suppressed) as a race, hundreds of times a second: the end-to-end daemon tests ran at a
-    # fraction of real time, lost frames and never paired a stereo frame (issue 9). Our own
+    # fraction of real time, lost frames and never paired a stereo frame. Our own
     # code's accesses and every pthread lock and atomic are still tracked.
     export TSAN_OPTIONS=${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1:ignore_noninstrumented_modules=1:suppressions=$PWD/scripts/tsan.supp}
     ;;

@@ -1,13 +1,13 @@
 #!/usr/bin/env bash
-# Soak test of seaviod (issue 7): a simulated survey, converted to an LCM log, is played in
+# Soak test of seaviod: a simulated survey, converted to an LCM log, is played in
 # real time (looped and re-stamped by `seavio log --play --loop-s`) over UDP multicast into a
 # running seaviod for N minutes, while lcm-logger records its poses and status. The daemon's
 # RSS is sampled every 2 s. At the end: RSS start/end/slope per hour, and latency p50/p99
 # of the first and last 5 minutes (`seavio profile --from-s/--to-s` on the recorded log).
-# It ends with a verdict, one PASS/FAIL line per limit (issue 9): RSS slope under 5 MB/h,
+# It ends with a verdict, one PASS/FAIL line per limit: RSS slope under 5 MB/h,
 # no leak reported (and, with --lsan, a planted leak caught by the same preload), no frame
 # dropped or lost, latency p99 of the last 5 minutes under 1.2 x that of the first; plus
-# the issue 8 goal (p99 <= 33 ms) in both windows. Exit status 1 if any line fails. The
+# the latency goal (p99 <= 33 ms) in both windows. Exit status 1 if any line fails. The
 # latency lines judge the frames during which no other process's real-time thread and no
 # hypervisor steal took the CPU from the daemon (sampled every 2 s, see step 3); the figures
 # over all frames, that rival CPU time and the steal follow as INFO lines.
