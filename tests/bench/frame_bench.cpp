@@ -1,6 +1,6 @@
 // One whole frame (stereo pair in, pose out) with the left and right features extracted
 // sequentially (core Odometry::process) or in parallel (daemon OdometryProcessor: right image
-// on a persistent worker), over a 40-frame short-plain clip in global mode (issue 8: median
+// on a persistent worker), over a 40-frame short-plain clip in global mode (median
 // <= 16 ms, p99 <= 40 ms on two cores). Each iteration runs the whole clip with a fresh
 // estimator; the counters give the per-frame median and p99 over every frame of every
 // iteration (the first frame, which only initialises, excluded): wall time, and the CPU time

@@ -17,7 +17,7 @@ namespace {
 
 using namespace seavio;
 
-/// range(0) matches, 30% outliers, 0.3 px noise (issue 8 goal: <= 1 ms at 100).
+/// range(0) matches, 30% outliers, 0.3 px noise (goal: <= 1 ms at 100).
 void BM_QuadrifocalRansac(benchmark::State& state) {
   const auto rig = geometry::testing::makeRig();
   const Eigen::Isometry3d T = geometry::testing::makeMotion();

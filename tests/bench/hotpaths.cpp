@@ -1,4 +1,4 @@
-// Fixed-input driver for scripts/callgrind.sh (issue 8): runs ONE hot path once, with
+// Fixed-input driver for scripts/callgrind.sh: runs ONE hot path once, with
 // callgrind's instrumentation switched on only around it, so the instruction count (Ir) is
 // that of the stage alone and comparable across commits on a noisy machine.
 //   hotpaths surf_detect | surf_describe | ransac | icp | rectify | rectify_cv | frame | frame2

@@ -1,4 +1,4 @@
-// Speed of the global-map stages (issues 5 and 8): ICP against a model of growing size (the
+// Speed of the global-map stages: ICP against a model of growing size (the
 // paper's is ~2,600 points, 3,165 ms; the goal is <= 3 ms) and frame selection in a map of
 // growing length (must stay flat: no hidden O(n) over the mission).
 #include <cmath>

@@ -1,4 +1,4 @@
-// Issue 4, "the IMU prediction measurably helps": correct inter-frame matches per millisecond
+// The IMU prediction measurably helps: correct inter-frame matches per millisecond
 // with the windows of the IMU prediction (paper III-C) against unpruned whole-image matching,
 // on rendered frames where the simulator's ground truth decides which matches are correct.
 // Frame pairs 1 and 3 frames apart (10 cm and 30 cm of motion at 1 m/s, 10 Hz).
@@ -19,7 +19,7 @@ using seavio::testing_support::MatchingScene;
 const MatchingScene& scene() {
   static const std::unique_ptr<MatchingScene> s = [] {
     const auto dir = std::filesystem::temp_directory_path() / "seavio_pruning_bench";
-    // SEAVIO_PRUNING_SEED picks another untuned survey (issue 4 reports the median over seeds).
+    // SEAVIO_PRUNING_SEED picks another untuned survey (report the median over seeds).
     const char* env = std::getenv("SEAVIO_PRUNING_SEED");
     const uint32_t seed = env != nullptr ? static_cast<uint32_t>(std::strtoul(env, nullptr, 10)) : 11u;
     return std::make_unique<MatchingScene>(seavio::testing_support::renderScene(

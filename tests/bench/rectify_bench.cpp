@@ -1,4 +1,4 @@
-// Rectification of one 640 x 480 stereo pair (issue 8): our fixed-point remap
+// Rectification of one 640 x 480 stereo pair: our fixed-point remap
 // (camera::remapBilinear, into reused outputs) against cv::remap on the same maps, which
 // gives the same bytes. Wall time, process CPU time as a counter (both threads when OpenCV's
 // pool is on); scripts/callgrind.sh rectify rectify_cv for instruction counts.

@@ -1,4 +1,4 @@
-// Speed of the simulator (issue 3 asks >= 20 stereo pairs/s at 640 x 480 on 2 cores).
+// Speed of the simulator (the goal: >= 20 stereo pairs/s at 640 x 480 on 2 cores).
 // BM_RenderStereoPair: one pair at a cruise pose, tiles cached (steady state of a survey).
 // BM_SurveyStereoPair: consecutive poses of the paper preset (1.5 m apart), so the cost of
 // generating new seafloor tiles is included; PNG writing is not.

@@ -1,4 +1,4 @@
-// Faults survived (issue 9), with the real parts wherever they exist: the Daemon's threads and
+// Faults survived, with the real parts wherever they exist: the Daemon's threads and
 // rings, LCM over loopback multicast (this process' private network namespace, see
 // netns_environment.cpp), the CAN IMU driver on a SOCK_SEQPACKET socketpair, and the real
 // seaviod process talking sd_notify to a listener socket. Each test injects one kind of fault

@@ -1,4 +1,4 @@
-// The global map step on its own thread (issues 6 and 8): the daemon in global mode publishes
+// The global map step on its own thread: the daemon in global mode publishes
 // every frame's local pose at once and the refined pose when the ICP thread is done, both
 // flagged and with the same seq; every request is accounted for; stop() returns within 1 s
 // with requests in flight. LCM over UDP multicast in the binary's private network namespace.

@@ -1,4 +1,4 @@
-// The daemon's IMU-only counter and, beside it, how those frames coasted (issue 5): corrected
+// The daemon's IMU-only counter and, beside it, how those frames coasted: corrected
 // by the leak the last fixes agree on, or covariance-only because they disagreed.
 #include <gtest/gtest.h>
 

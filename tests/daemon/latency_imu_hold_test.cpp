@@ -1,4 +1,4 @@
-// daemon.imu_hold_ms (issue 8): with 0 the estimator waits for the first IMU sample after a
+// daemon.imu_hold_ms: with 0 the estimator waits for the first IMU sample after a
 // frame (the hand-over `seavio run` makes, deterministic replay); with N > 0 it goes on as
 // soon as the newest sample is at most N ms before the frame, without the later one. The
 // sources below hold the sample after each frame back for 300 ms of real time, so which

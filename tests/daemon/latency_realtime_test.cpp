@@ -1,4 +1,4 @@
-// Thread scheduling of the daemon (issue 8, daemon/realtime.hpp): `daemon.realtime` is
+// Thread scheduling of the daemon (daemon/realtime.hpp): `daemon.realtime` is
 // parsed and validated; the background threads (global ICP, status) always demote
 // themselves to SCHED_BATCH at the configured nice; the frame path gets SCHED_FIFO when
 // asked and permitted, and a refusal is reported with the reason; every worker thread of a

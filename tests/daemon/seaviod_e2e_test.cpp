@@ -1,11 +1,11 @@
-// seaviod end to end with the real parts (issues 6 and 9): two Aravis fake GigE Vision cameras
+// seaviod end to end with the real parts: two Aravis fake GigE Vision cameras
 // (real GVCP/GVSP peers) on 127.0.0.1 and 127.0.0.2 serve the left and right images of a
 // simulated sequence, a VectorNav binary stream on a pseudo-terminal carries the same
 // sequence's IMU samples, and the real `seaviod` process (camera.driver aravis, imu.driver
 // serial) publishes on LCM over loopback multicast. Everything runs in this test process'
 // private network namespace (netns_environment.cpp), which the seaviod child inherits.
 //
-// Time alignment (the choice asked for in issue 6): the fake camera stamps every frame with
+// Time alignment: the fake camera stamps every frame with
 // its own clock, CLOCK_REALTIME, and wakes on multiples of its frame period on that clock
 // (arv_fake_camera_get_sleep_time_for_next_frame). The feeder knows both clocks: it picks the
 // realtime grid index `idx0` of sequence frame 0, the fill callback serves sequence frame
@@ -377,7 +377,7 @@ class ImuFeeder {
           // ...and the next one split across two writes (a partial packet). The second part
           // goes only once seaviod has read the first: the pty hands bytes written on the
           // master to the slave's queue asynchronously (on a loaded machine after more than
-          // the 20 ms this waited until stop 43), so wait for them to arrive there, then for
+          // 20 ms), so wait for them to arrive there, then for
           // the queue to empty; a reader scheduled late would otherwise get both parts in one
           // read and see no partial packet.
           put(std::vector<uint8_t>(pkt.begin(), pkt.begin() + 10));

@@ -1,5 +1,5 @@
 // systemd/seaviod.service passes `systemd-analyze verify` with a clean stderr and has an
-// exposure of at most 2.5 under `systemd-analyze security --offline=true` (issue 9).
+// exposure of at most 2.5 under `systemd-analyze security --offline=true`.
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>

@@ -105,7 +105,7 @@ TEST(WorkerPool, ZeroThreadsMeansOne) {
 }
 
 TEST(WorkerPool, RecurringJobRunsOnTheWorkerEachTimeItIsPosted) {
-  // GIVEN a job set once (the per-frame right-image detection posts one like it, issue 8)
+  // GIVEN a job set once (the per-frame right-image detection posts one like it)
   WorkerPool pool(1, 1);
   std::atomic<int> runs{0};
   std::thread::id where;

@@ -1,4 +1,4 @@
-// Issue 8: rectification through our own fixed-point remap (no per-call buffers) must give
+// Rectification through our own fixed-point remap (no per-call buffers) must give
 // exactly cv::remap's bytes on the same maps, at the image borders as much as inside.
 #include <algorithm>
 #include <cmath>

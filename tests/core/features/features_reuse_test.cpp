@@ -1,4 +1,4 @@
-// Issue 8: FeatureExtractor::extract into a caller-owned Features (the per-frame path) reuses
+// Reuse: FeatureExtractor::extract into a caller-owned Features (the per-frame path) reuses
 // its keypoint and descriptor buffers: the output must be bit-identical to a fresh extraction,
 // and a descriptor Mat that another header still shares must never be written into.
 #include <cstring>

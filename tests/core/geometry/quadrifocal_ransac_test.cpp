@@ -239,7 +239,7 @@ TEST(QuadrifocalRansac, StatusNames) {
   EXPECT_STREQ(toString(RansacStatus::kNoConsensus), "no_consensus");
 }
 
-// Issue 8: estimate() into a RansacResult kept across frames gives what a fresh result gives,
+// Reuse: estimate() into a RansacResult kept across frames gives what a fresh result gives,
 // whatever the previous call left in it (a success with many inliers, a failure).
 TEST(QuadrifocalRansac, ReusedResultEqualsAFreshOne) {
   const auto rig = makeRig();

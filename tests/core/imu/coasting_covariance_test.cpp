@@ -1,4 +1,4 @@
-// The coasting covariance (issue 9): one correlated error state from the last visual fix,
+// The coasting covariance: one correlated error state from the last visual fix,
 // propagated frame by frame, must grow like the dead-reckoning error it describes.
 #include <cmath>
 #include <cstdio>

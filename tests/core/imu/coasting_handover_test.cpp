@@ -1,4 +1,4 @@
-// The velocity handed over to coasting (issue 9): fitted over a window of visual fixes with
+// The velocity handed over to coasting: fitted over a window of visual fixes with
 // the IMU's accelerations taken out, with the covariance of that fit; and the one IMU
 // interpolation the dead reckoning and the coasting covariance share.
 #include <cmath>
@@ -221,7 +221,7 @@ TEST(CoastingHandover, AMeasuredAccelerationIsTheCorrectionAndItCancelsTheTiltAn
   straight.propagate(R, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), levelSamples(t, 0.0), 0,
                      static_cast<int64_t>(t * 1e9), quiet);
   // THEN each axis' position error is the fit's plus, horizontally, the bias prior's,
-  // Cv t^2 + Cva t^3 + (Ca + sigma_b^2) t^4 / 4: the tilt prior adds nothing (issue 9: it
+  // Cv t^2 + Cva t^3 + (Ca + sigma_b^2) t^4 / 4: the tilt prior adds nothing (it
   // used to add g 5 mrad of acceleration error on top, counting the tilt twice), nor does the
   // bias vertically (it stays vertical while the vehicle turns about the vertical)
   for (int a = 0; a < 3; ++a) {

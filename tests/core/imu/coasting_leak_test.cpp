@@ -1,4 +1,4 @@
-// Coasting at 1 Hz (issue 5, core/imu/coasting_leak.hpp): the acceleration the IMU misses,
+// Coasting at 1 Hz (core/imu/coasting_leak.hpp): the acceleration the IMU misses,
 // measured from the innovations of several recent fixes that agree, corrects the coasted
 // frames; a poor fix among them does not; fixes that disagree correct nothing and widen the
 // coasting covariance instead.

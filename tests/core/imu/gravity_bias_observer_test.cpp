@@ -1,4 +1,4 @@
-// The tilt rates of the gyro bias from gravity (issue 4): over windows of visual tracking the
+// The tilt rates of the gyro bias from gravity: over windows of visual tracking the
 // accelerometer, against vision's acceleration, sees the chain's tilt drift; a constant
 // accelerometer bias must not enter, nor must the vehicle's own accelerations, and a turn
 // (which rotates the accelerometer bias in W) must stop the comparison.

@@ -1,4 +1,4 @@
-// The map's memory follows the area surveyed, not the time spent over it (issues 5 and 8):
+// The map's memory follows the area surveyed, not the time spent over it:
 // keyframe policy on travel AND overlap, packed points, bounded cost per keyframe.
 #include <gtest/gtest.h>
 

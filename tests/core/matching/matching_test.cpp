@@ -179,7 +179,7 @@ TEST(TemporalMatcher, WindowGrowsWithUncertainty) {
   EXPECT_LE(wl, p.max_window_px);
 }
 
-// Issue 8: the workspace versions reuse their buffers across frames; a reused (dirty)
+// Reuse: the workspace versions reuse their buffers across frames; a reused (dirty)
 // workspace and output must give exactly what fresh ones give, whatever sizes came before.
 TEST(MatchingWorkspace, ReusedWorkspaceGivesTheSameMatchesAsAFreshOne) {
   const auto rig = makeRig();

@@ -1,4 +1,4 @@
-// 1 Hz vision losses end to end (issue 5): `Odometry` itself, as `seavio run` drives it, over a
+// 1 Hz vision losses end to end: `Odometry` itself, as `seavio run` drives it, over a
 // synthetic 1 Hz survey whose frames go textureless for a stretch while the IMU goes on. The
 // IMU carries a leak (an accelerometer bias that appears after the still start, so the levelling
 // cannot absorb it as tilt): the steady fixes before the loss either agree on it (a constant

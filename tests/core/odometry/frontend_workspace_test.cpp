@@ -1,4 +1,4 @@
-// Issue 8: the per-frame path reuses buffers kept in workspaces instead of allocating. These
+// The per-frame path reuses buffers kept in workspaces instead of allocating. These
 // tests hold the reuse to "bit-identical to fresh buffers and to the OpenCV calls it replaces",
 // over frames of changing content and size.
 #include <cstring>
@@ -287,7 +287,7 @@ TEST(OdometryWorkspaceReuse, ProcessTracksExactlyLikeFreshFrontendFrames) {
 }
 
 // The tensor stage's patch-alignment part is timed on its own (bench stages compares the rest
-// with issue 8's RANSAC goal). A clock that steps 1 ms per reading makes every lap 1 ms.
+// with the RANSAC goal). A clock that steps 1 ms per reading makes every lap 1 ms.
 TEST(OdometryStageTimes, PatchAlignmentIsTimedAsPartOfTheTensorStage) {
   std::string error;
   for (const bool patches : {true, false}) {

@@ -1,4 +1,4 @@
-// The chain's claimed position sigma against its real error (issue 5): on the full 1 Hz paper
+// The chain's claimed position sigma against its real error: on the full 1 Hz paper
 // survey the odometry claimed 0.11 m at the first revisit against 9.4 m of real error, so the
 // drift-disc re-observation search never opened. Here Monte Carlo chains over a lawnmower
 // path, whose heading drifts with a Gauss-Markov gyro-bias error as the estimator leaves it,

@@ -1,4 +1,4 @@
-// The global step as its own unit (issue 8: the global ICP on its own thread): GlobalRefiner
+// The global step as its own unit (the global ICP on its own thread): GlobalRefiner
 // in isolation, and Odometry's deferred mode against the inline one on a synthetic survey
 // that comes back over its own ground.
 #include "core/odometry/global_refiner.hpp"
@@ -205,7 +205,7 @@ TEST(GlobalRefiner, WithTheTiltKeptTheMapMovesPositionAndHeadingAndLeavesRollAnd
   EXPECT_LT(tiltBetween(full.T_W_R0.linear(), T_W_R0.linear()), 1e-3);
 }
 
-/// A straight old leg along x over a long random floor (issue 5's revisit tests): the body
+/// A straight old leg along x over a long random floor (as in the revisit tests): the body
 /// at metre `x` of it and the frame seen there (frame `id` at `id` seconds).
 struct OldLeg {
   camera::StereoRectifier rect = makeRectifier();
@@ -227,7 +227,7 @@ struct OldLeg {
 
 /// A leg along x over a long floor, one frame per metre, stored as keyframes at the true
 /// poses; then a frame over metre `true_x` of it whose odometry says `estimated_x`, with a
-/// position sigma of `sigma_m` per axis, as after kilometres of drift (issue 5).
+/// position sigma of `sigma_m` per axis, as after kilometres of drift.
 GlobalCorrection revisitAfterLargeDrift(int disc_candidates, double true_x, double estimated_x, double sigma_m) {
   OldLeg leg;
   const camera::RectifiedRig& rig = leg.rig;
@@ -510,7 +510,7 @@ TEST(OdometryDeferredGlobal, ACorrectionOfTheChainMovesThePublishedPoseAsItMoved
   EXPECT_TRUE(publishedCorrection(q, c).isApprox(c.correction_W, 1e-12));
 }
 
-// --- Keyframe tracking in global mode (issue 5): at 1 Hz and 1.5 m per frame previous-frame
+// --- Keyframe tracking in global mode: at 1 Hz and 1.5 m per frame previous-frame
 // tracking broke down on the paper survey, so global mode tracks against keyframes as local
 // mode does, and a map correction moves the keyframe with the frame.
 

@@ -1,4 +1,4 @@
-// The visual gyro-bias gain at 1 Hz (issue 5: the 1 Hz full survey's heading drift). With
+// The visual gyro-bias gain at 1 Hz (the 1 Hz full survey's heading drift). With
 // gyro_bias_gain_interval_s 0.1 the gain per frame holds at 10 Hz and scales with sqrt(interval)
 // at other frame rates; per frame at any rate (0, the default) the heading bias lagged ~100 s
 // behind its random walk on the 1 Hz survey and the heading followed the lag.
@@ -34,7 +34,7 @@ DriftRun fly(double dt, int frames, double speed, double ramp, double gain_inter
   const camera::RectifiedRig rig = rectifier->rig();
   OdometryParams params;
   params.gyro_bias_gain_interval_s = gain_interval_s;
-  params.gyro_bias_gain = 0.01;  // the gain the bounds below are derived from (default 0.02 since stop 35)
+  params.gyro_bias_gain = 0.01;  // the gain the bounds below are derived from (the default is 0.02)
   Odometry odo(std::move(*rectifier), imu::ImuNoise{}, params);
 
   std::mt19937 rng(7);

@@ -39,7 +39,7 @@ BiasRun fly(const Eigen::Vector3d& bias, bool per_keyframe) {
   params.gyro_bias_vision_tilt_weight = 1.0;
   params.gyro_bias_gravity_window_s = 0.0;
   // The gain and the tilt references this comparison's bounds were set with: 0.01 per frame,
-  // and no accelerometer-bias filter turning the chain (both defaults since stop 35).
+  // and no accelerometer-bias filter turning the chain.
   params.gyro_bias_gain = 0.01;
   params.accel_bias_estimation = false;
   Odometry odo(std::move(*rectifier), imu::ImuNoise{}, params);

@@ -1,4 +1,4 @@
-// Issue 4: a visual rotation with a pitch rate that is not the vehicle's (over a flat floor the
+// A visual rotation with a pitch rate that is not the vehicle's (over a flat floor the
 // prior-free four-view rotation couples pitch with surge) must not be learnt into the gyro bias.
 // The vehicle flies level at 1 m/s and the gyro has no bias; the frames are rendered from a
 // camera that pitches slowly, as the biased visual rotation would have it. The old update learns

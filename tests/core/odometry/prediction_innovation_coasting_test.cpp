@@ -1,5 +1,5 @@
-// The search windows after a coasting that was corrected for the leak (issue 5,
-// core/imu/coasting_leak.hpp, odometry.cpp): the corrected state carries no velocity lag, so
+// The search windows after a coasting that was corrected for the leak
+// (core/imu/coasting_leak.hpp, odometry.cpp): the corrected state carries no velocity lag, so
 // the next prediction misses by the leak's dt^2 / 2 once, not k times the last fix's miss.
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-// Malformed configuration (issue 9): every error names the file and the key, and seaviod
+// Malformed configuration: every error names the file and the key, and seaviod
 // exits non-zero before any device is opened. Complements tests/daemon (daemon: section
 // alone) with the odometry: section and key shapes found by the fuzz targets.
 #include <fcntl.h>

@@ -75,8 +75,7 @@ TEST(OdometryConfig, FileErrorsThrowWithThePath) {
 
 TEST(OdometryConfig, TheShippedFileSaysWhatTheBuiltInDefaultsAre) {
   // `seavio run` without --config uses the built-ins, the daemon and the docs config/seavio.yaml:
-  // a default changed in one place only would make the two run different filters (stop 39
-  // flipped accel_bias.gyro_bias_states in both).
+  // a default changed in one place only would make the two run different filters.
   const odometry::OdometryParams shipped = loadOdometryParamsFile(shippedConfigPath());
   EXPECT_EQ(describe(shipped), describe(odometry::OdometryParams{}));
   EXPECT_TRUE(shipped.accel_bias.gyro_bias_states);

@@ -1,4 +1,4 @@
-// Hostile length fields in LCM messages and logs (issue 9; inputs found by fuzz/lcm_*_fuzz).
+// Hostile length fields in LCM messages and logs (inputs found by fuzz/lcm_*_fuzz).
 #include <gtest/gtest.h>
 
 #include <climits>

@@ -1,4 +1,4 @@
-// `seavio bench` plumbing (issues 5 and 8) on a tiny survey: 20 frames at 320 x 240, so the
+// `seavio bench` plumbing on a tiny survey: 20 frames at 320 x 240, so the
 // whole file runs in seconds. Accuracy and speed themselves are measured by `seavio bench`.
 #include <cmath>
 #include <filesystem>
@@ -144,7 +144,7 @@ TEST(BenchPlumbing, TinyStageBenchFillsEveryRow) {
   std::ostringstream os;
   printStageTable(os, rows);
   EXPECT_NE(os.str().find("ICP vs 2600-point model"), std::string::npos);
-  // The tensor stage in two rows: RANSAC and refinement (against issue 8's goal), patches apart.
+  // The tensor stage in two rows: RANSAC and refinement (against its goal), patches apart.
   EXPECT_NE(os.str().find("tensor: RANSAC + motion refinement"), std::string::npos);
   EXPECT_NE(os.str().find("tensor: patch alignment"), std::string::npos);
   fs::remove_all(o.out_dir);

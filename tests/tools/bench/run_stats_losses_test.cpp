@@ -1,4 +1,4 @@
-// The vision losses of a `seavio run` in its stats (issue 5 observability): IMU-only frames and
+// The vision losses of a `seavio run` in its stats: IMU-only frames and
 // outages counted by what corrected their coasting (OdometryResult::coasting), in the printed
 // table, the JSON's "losses" object and each frame's "coasting".
 #include <filesystem>

@@ -1,4 +1,4 @@
-// `seavio bench paper --data` and `seavio bench scaling` (issues 5 and 8): fits, per-frame
+// `seavio bench paper --data` and `seavio bench scaling`: fits, per-frame
 // CSVs, memory samples, and a tiny end-to-end sweep at 320 x 240.
 #include <cmath>
 #include <filesystem>

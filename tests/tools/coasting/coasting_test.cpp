@@ -1,4 +1,4 @@
-// Coasting through vision loss (issue 9): GIVEN a short simulated survey with a blackout and a
+// Coasting through vision loss: GIVEN a short simulated survey with a blackout and a
 // turbidity stretch, WHEN the odometry runs over it through `seavio run`'s frame loop, THEN
 // every frame inside a stretch is flagged IMU-only (FLAG_IMU_ONLY on LCM), its position
 // covariance grows frame by frame, nothing is NaN, vision takes over again right after, and
@@ -88,7 +88,7 @@ TEST(Coasting, BlackoutAndTurbidityAreFlaggedWithGrowingCovarianceAndVisionRecov
   fs::remove_all(dir);
 }
 
-// Consistency of the coasting covariance (issue 9): GIVEN short surveys on seeds the
+// Consistency of the coasting covariance: GIVEN short surveys on seeds the
 // covariance was not tuned on (tuning: seed 5), each with a 5 s blackout, turbidity and
 // featureless stretch, WHEN the odometry coasts through them, THEN the position error each
 // stretch adds lies inside three standard deviations of the covariance it added, at 0.5, 1, 2
@@ -156,14 +156,12 @@ TEST(CoastingConsistency, ErrorInsideThreeSigmaAtHalfOneTwoAndFiveSecondsForEver
   ASSERT_EQ(checked, 24);
   EXPECT_EQ(inside, checked);
   // Useful, not a formality: within a factor 10 of the error. The gravity-referenced tilt
-  // rates of the gyro bias (core/imu/gravity_bias_observer.hpp) cut the tilt at the hand-over
-  // from 17-34 to 3-6 mrad and the errors with it (median 3 sigma / error 8.6 -> 19.5, bound
-  // relaxed to 25), while the start covariance counted the tilt twice: as the 5 mrad attitude
-  // prior and inside the fitted acceleration. The correction's error now cancels what the
-  // tilt and the bias's vertical component do (core/imu/coasting_covariance.cpp): 19.5 -> 9.7
-  // (tilt alone 11.8; the horizontal bias too 2.2, but with 2 of 24 errors just above 3 sigma).
-  // Stop 24's ripple notch (core/odometry/ripple_notch.hpp) shrank the errors before the loss
-  // once more (tilt at the hand-over 2.8-6.5 mrad): 9.7 -> 10.4, bound 12.
+  // rates of the gyro bias (core/imu/gravity_bias_observer.hpp) keep the tilt at the hand-over
+  // to a few mrad, so the start covariance must not count it twice (as the 5 mrad attitude
+  // prior and inside the fitted acceleration): the correction's error cancels what the tilt
+  // and the bias's vertical component do (core/imu/coasting_covariance.cpp); cancelling the
+  // horizontal bias too leaves 2 of 24 errors just above 3 sigma. With the ripple notch
+  // (core/odometry/ripple_notch.hpp) the tilt at the hand-over is 2.8-6.5 mrad: bound 12.
   EXPECT_LE(median_looseness, 12.0);
 }
 

@@ -1,4 +1,4 @@
-// Issue 5: the global variant bounds the drift when the survey comes back over earlier
+// The global variant bounds the drift when the survey comes back over earlier
 // ground. Two overlapping legs (lane spacing below the image footprint) on an untuned seed.
 #include <filesystem>
 #include <iostream>
@@ -75,12 +75,12 @@ TEST(GlobalMap, ReobservesTheFirstLegWhenComingBackOverIt) {
   EXPECT_FALSE(global.metrics.incomplete);
 }
 
-// Issue 5, "global beats local on both datasets, on sequences the code was not tuned on":
+// Global beats local on both datasets, on sequences the code was not tuned on:
 // GIVEN the paper's plain and snow surveys at a tenth of their length (300 frames at 1 Hz,
 // 442 m, lanes overlapping as in the full survey) and a quarter of the pixels, on seed 19
 // (never used for tuning), WHEN `seavio bench paper` runs both variants on both, THEN the
 // global variant's mean error is at least a fifth below the local one's on each floor, and
-// plain global stays under the issue's 0.03 % of distance. Seeds 19 / 29 / 37 (stop 47):
+// plain global stays under the goal of 0.03 % of distance. Seeds 19 / 29 / 37:
 // global / local 0.64 / 0.67 / 0.57 plain, 0.67 / 0.81 / 0.57 snow. (At 320 x 240 snow's
 // error is ~5 x plain's, at the full 640 x 480 1.14 x: the accuracy figures are taken there,
 // docs/benchmarks.md.)

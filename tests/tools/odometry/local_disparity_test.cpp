@@ -1,4 +1,4 @@
-// Issue 4 diagnosis, kept as a guard: the along-track scale error of seed 5 (-0.35 %) is not a
+// A diagnosis kept as a guard: the along-track scale error of seed 5 (-0.35 %) is not a
 // disparity bias. Each stereo point's disparity is checked against the simulator's ground
 // truth (the floor point on the rectified left ray, at the true pose); a -0.35 % scale at
 // 4 m altitude would need +0.15 px of disparity (d ~ 44 px), a principal-point or sub-pixel

@@ -1,4 +1,4 @@
-// Issue 4 diagnosis, kept as a guard: where the along-track scale error of seed 5 (-0.38 % of
+// A diagnosis kept as a guard: where the along-track scale error of seed 5 (-0.38 % of
 // distance once the pitch/surge coupling is taken out, docs/architecture.md) enters. Over frame
 // pairs one keyframe span apart (12 frames, 1.2 m), each RANSAC inlier's image motion is
 // compared with the true one (the floor point on the previous left ray, at the true poses,

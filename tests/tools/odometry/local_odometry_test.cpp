@@ -1,4 +1,4 @@
-// End-to-end tests of the local variant (issue 4) on short simulated surveys with seeds the
+// End-to-end tests of the local variant on short simulated surveys with seeds the
 // pipeline was not tuned on (tuning used seed 5). Each sequence is rendered once per run.
 #include <algorithm>
 #include <cmath>
@@ -149,7 +149,7 @@ TEST(LocalOdometry, MarineSnowCostsLittle) {
   RecordProperty("final_error_um_snow", static_cast<int>(1e6 * snow.metrics.final_error_m));
   RecordProperty("distance_mm", static_cast<int>(1e3 * snow.metrics.distance_m));
   EXPECT_EQ(snow.imu_only_frames, 0);
-  EXPECT_LT(snow.metrics.mean_error_pct, 0.17);  // measured 0.090 % (plain 0.063 %), stop 27
+  EXPECT_LT(snow.metrics.mean_error_pct, 0.17);
   // Within 20 % of plain, or within 2 cm where both are tiny.
   EXPECT_LT(snow.metrics.mean_error_m, std::max(1.2 * plain.metrics.mean_error_m, plain.metrics.mean_error_m + 0.02));
 }
@@ -281,9 +281,7 @@ TEST(LocalOdometry, ReselectedInliersSharpenVisionsOwnHeadingAtOneHertz) {
   const std::vector<double>& inl_reselected = reselected.inliers;
   ASSERT_GT(err_first.size(), 25u);
   ASSERT_GT(err_reselected.size(), 25u);
-  // THEN more inliers take part and the steps' heading error shrinks (medians). Measured at
-  // the time of writing (60 frames, 87 m): inliers 49 -> 77, heading error 0.57 -> 0.29 mrad;
-  // with the guided tracks since stop 28, 49 -> 125 and 0.57 -> 0.20 mrad.
+  // THEN more inliers take part and the steps' heading error shrinks (medians).
   const double e0 = testing_support::median(err_first), e1 = testing_support::median(err_reselected);
   const double n0 = testing_support::median(inl_first), n1 = testing_support::median(inl_reselected);
   RecordProperty("median_heading_err_urad_first", static_cast<int>(std::lround(1e6 * e0)));
@@ -324,13 +322,12 @@ TEST(LocalOdometry, GuidedTracksGiveSnowItsLostPointsBackAtOneHertz) {
   const drivers::Dataset& ds = oneHertzSurvey("1hz_snow", 137, true, 50);
   odometry::OdometryParams params = visionRotationOnly();
   ASSERT_TRUE(params.guided_tracks.enabled);  // the default this test stands behind
-  // At the feature count it was measured with: the inlier target (default since stop 41) puts
+  // Without the inlier target, which puts
   // ~3000 features into a 1 Hz snow frame, where the guided tracks still add inliers but vision's
   // heading step is 0.10 mrad with or without them (101 / 106 urad on this sequence).
   params.features.controller.target_inliers = 0;
-  // And without stereo completion (default since stop 43), which gives snow lost points back
-  // before the guided tracks do: with it they took 0.27 -> 0.24 mrad, 11 %, short of the 15 %
-  // below.
+  // And without stereo completion, which gives snow lost points back before the guided tracks
+  // do: with it they sharpen the heading step by less than the 15 % below.
   params.stereo.completion.enabled = false;
   // WHEN the points descriptor matching missed are looked for where the motion puts them
   const auto run = [&](bool guided) {
@@ -350,8 +347,6 @@ TEST(LocalOdometry, GuidedTracksGiveSnowItsLostPointsBackAtOneHertz) {
   RecordProperty("mean_error_mm_without", static_cast<int>(std::lround(1e3 * without.mean_error_m)));
   RecordProperty("mean_error_mm_with", static_cast<int>(std::lround(1e3 * with.mean_error_m)));
   // THEN the frames keep more inliers and vision's own heading steps are sharper (medians).
-  // Measured at the time of writing (50 frames, 73 m): inliers 43 -> 67 (36 guided tracks),
-  // step heading error 0.31 -> 0.22 mrad.
   EXPECT_EQ(testing_support::median(without.guided), 0.0);
   EXPECT_GT(n1, 1.3 * n0);
   EXPECT_LT(e1, 0.85 * e0) << "without " << e0 << " rad, with " << e1 << " rad";
@@ -391,7 +386,7 @@ TEST(LocalOdometry, GyroPriorBeatsVisionOnlyRotation) {
   // the 1 Hz survey, whose wide steps are where vision's rotation is weakest, step by step:
   // how far a 60-frame survey's position wanders is one draw of a random walk, and with the
   // sharper images of the dots-only snow filter vision alone sometimes ends the closer
-  // (8 untuned seeds, 131-167, stop 45: mean error medians 0.018 m with the prior against
+  // (8 untuned seeds, 131-167: mean error medians 0.018 m with the prior against
   // 0.038 m without, 6 of 8 closer; here 0.042 against 0.037 m), while every seed's step
   // errors halve with the prior (tilt ratio 0.31-0.52, translation 0.44-0.56).
   const drivers::Dataset& ds = oneHertzSequence();
@@ -434,7 +429,7 @@ TEST(LocalOdometry, KeyframeTrackingIsNoWorseThanFrameToFrame) {
   const RunResult consecutive = runOdometry(ds, frame_to_frame);
   // THEN every frame stays visual, and neither the attitude nor the position is worse. (Over
   // 7 s the gain is small, 3.0 against 3.2 mrad here; the gyro's noise random-walks once per
-  // tracked pair, so it grows with the survey: see the closing note of issue 4.)
+  // tracked pair, so it grows with the survey.)
   RecordProperty("attitude_error_urad_keyframes", static_cast<int>(1e6 * keyframes.final_attitude_error_rad));
   RecordProperty("attitude_error_urad_consecutive", static_cast<int>(1e6 * consecutive.final_attitude_error_rad));
   RecordProperty("mean_error_um_keyframes", static_cast<int>(1e6 * keyframes.metrics.mean_error_m));

@@ -84,10 +84,9 @@ TEST_P(PatchRefinement, BringsTheThreeOtherImagesOfAPointCloserToTheTruth) {
   }
   ASSERT_GT(correct, 300);
   // THEN most correct matches are refined, and in each image the refined positions' median
-  // distance from the truth is under SURF's own. Measured at the time of writing (median px,
-  // SURF -> refined): plain 0.23 -> 0.16, 0.36 -> 0.27, 0.38 -> 0.29; snow 0.27 -> 0.19,
-  // 0.40 -> 0.29, 0.40 -> 0.31. What is left is mostly the floor's relief within a patch,
-  // seen with parallax (1 cm at 4 m over 0.8 m is ~0.3 px), which no planar patch follows.
+  // distance from the truth is under SURF's own. What is left is mostly the floor's relief
+  // within a patch, seen with parallax (1 cm at 4 m over 0.8 m is ~0.3 px), which no planar
+  // patch follows.
   EXPECT_GT(refined, correct / 2);
   const char* names[3] = {"previous right", "current left", "current right"};
   for (int i = 0; i < 3; ++i) {

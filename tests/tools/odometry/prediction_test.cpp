@@ -1,4 +1,4 @@
-// Issue 4, "the IMU prediction measurably helps", both halves: (1) pruning the inter-frame
+// The IMU prediction measurably helps, both halves: (1) pruning the inter-frame
 // search with the IMU prediction finds more correct matches than searching the whole image;
 // (2) through pivot turns at the paper's rate of turn the IMU-predicted odometry stays far
 // more accurate than with a vision-only constant-velocity prediction. Speed is measured in
@@ -134,7 +134,7 @@ TEST(TurnPrediction, ImuPredictionTracksPivotTurnsFarBetterThanConstantVelocity)
   // THEN the IMU-predicted odometry tracks every frame with millimetre errors, while the
   // vision-only one (no IMU window, no gyro prior) keeps tracking, thanks to rotation-invariant
   // SURF and wide windows, but measures each turning step markedly worse. Step by step: the
-  // end error of a 17 s run is one draw (8 untuned seeds 23-53, stop 45, dots-only snow
+  // end error of a 17 s run is one draw (8 untuned seeds 23-53, dots-only snow
   // filter: mean error medians 4.2 against 6.8 mm, 7 of 8 closer with the IMU; turning steps'
   // median rotation / translation error ratio 0.32-0.64 / 0.33-0.62 on seven, seed 37 a tie at
   // 1.00 / 0.87; this seed 0.37 / 0.38: 155 against 419 urad, 0.82 against 2.17 mm).

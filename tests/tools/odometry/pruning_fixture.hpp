@@ -1,5 +1,5 @@
 #pragma once
-// Inter-frame matching on rendered frames with ground truth (issue 4, "the IMU prediction
+// Inter-frame matching on rendered frames with ground truth ("the IMU prediction
 // measurably helps"): shared by the pruning test and tests/bench/pruning_bench.cpp.
 #include <algorithm>
 #include <cmath>

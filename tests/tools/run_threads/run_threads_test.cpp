@@ -1,5 +1,5 @@
 // `seavio run --threads 2` extracts the right image's features on a persistent worker while
-// the left runs on the caller (issue 8). Only the order of independent work changes, so every
+// the left runs on the caller. Only the order of independent work changes, so every
 // pose, covariance and count must be bit-identical to the sequential run.
 #include <cstring>
 #include <filesystem>

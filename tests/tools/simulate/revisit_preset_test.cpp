@@ -1,5 +1,5 @@
-// The `revisit` preset of the issue 8 memory proof: 10,000 frames, most of them over ground
-// the first pass already mapped.
+// The `revisit` preset (memory follows the area, not the time): 10,000 frames, most of
+// them over ground the first pass already mapped.
 #include <gtest/gtest.h>
 
 #include <vector>

@@ -2,7 +2,7 @@
 // lane spacing and frames times the scale, turn limits divided by it), THEN the floor the
 // camera sees at a given place is the same in both, and as textured 400 m down the first leg
 // as at the start: the floor is a function of (x, y, seed) sampled at a fixed 7.5 mm, not a
-// raster stretched over the survey area. (Issue 5: the full survey's first 300 frames drifted
+// raster stretched over the survey area. (the full survey's first 300 frames drifted
 // ~10x more than the scaled one's; the floor is not why, see docs/simulator.md.)
 #include <gtest/gtest.h>
 

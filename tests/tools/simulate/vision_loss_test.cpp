@@ -1,4 +1,4 @@
-// GIVEN vision-loss stretches (issue 9), THEN the images inside them lose their texture
+// GIVEN vision-loss stretches, THEN the images inside them lose their texture
 // (blackout, turbidity, featureless floor, out-of-range altitude), the images outside and
 // the IMU and ground truth are byte-identical to a run without them, the stretches are
 // recorded in mav0/vision_loss.csv, and bad specifications are clear errors.

@@ -1,4 +1,4 @@
-// Issue 8: "no allocation on the per-frame path". Local and global mode over a rendered
+// No allocation on the per-frame path. Local and global mode over a rendered
 // short-plain clip; after a few frames of warm-up every buffer has its size, so a frame that
 // stores nothing new (no keyframe) must not call the heap at all. Counted at the C allocator,
 // which operator new, cv::fastMalloc and Eigen all end in, so nothing escapes the count.
