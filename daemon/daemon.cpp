@@ -242,8 +242,8 @@ void Daemon::cameraLoop() {
     health_.last_frame_recv_ns = item.recv_ns;
     // Backpressure waits on the ring's free-slot count, not on sizeApprox(): the size drops
     // when the estimator claims a frame but the slot is freed only after the frame is moved
-    // out, and a non-blocking push in that window used to lose the frame (replay then
-    // waited forever for its pose).
+    // out, and a non-blocking push in that window would lose the frame (replay would then
+    // wait forever for its pose).
     bool pushed = false;
     while (cfg_.backpressure && !stop_acq_ && !pushed) pushed = frames_->pushWaitFor(std::move(item), kPoll);
     if (!pushed) frames_->pushDroppingOldestIfFull(std::move(item));

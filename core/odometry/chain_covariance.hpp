@@ -3,7 +3,7 @@
 /// re-observation search and gate with (paper III-D: the map bounds the drift, so it must know
 /// how far the drift can have gone).
 ///
-/// Two terms the chain used to drop, which on the full 1 Hz paper survey left the claimed
+/// Two terms a plain composition drops, which on the full 1 Hz paper survey leave the claimed
 /// position sigma 50-100x below the real error (0.11 m against 9.4 m at the first revisit):
 /// - The reference pose's rotation error turns every later step: composing
 ///   p = p_ref + R_ref t with R_ref off by dtheta moves p by dtheta x (p - p_ref). Without

@@ -4,7 +4,7 @@
 /// (core/matching/patch_alignment.hpp).
 ///
 /// Why a cache: that alignment depends on the reference pair alone. While frames track
-/// against one keyframe (1.2 m, a dozen frames at 10 Hz) each frame used to redo it for the
+/// against one keyframe (1.2 m, a dozen frames at 10 Hz) each frame would redo it for the
 /// same points; kept per keyframe it runs once per point, and a point whose template or
 /// alignment failed is not tried again. The results are the same to the bit.
 #include <cstddef>

@@ -11,7 +11,7 @@ namespace seavio::drivers::parse {
 namespace {
 
 // The same characters std::isspace and `operator>>` skip, so a line that is blank to split(' ')
-// is blank here too (a lone form feed used to pass as data and leave split() empty).
+// is blank here too (else a lone form feed passes as data and leaves split() empty).
 constexpr const char* kSpace = " \t\n\v\f\r";
 
 std::string trim(const std::string& s) {

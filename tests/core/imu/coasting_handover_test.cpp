@@ -221,8 +221,8 @@ TEST(CoastingHandover, AMeasuredAccelerationIsTheCorrectionAndItCancelsTheTiltAn
   straight.propagate(R, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), levelSamples(t, 0.0), 0,
                      static_cast<int64_t>(t * 1e9), quiet);
   // THEN each axis' position error is the fit's plus, horizontally, the bias prior's,
-  // Cv t^2 + Cva t^3 + (Ca + sigma_b^2) t^4 / 4: the tilt prior adds nothing (it
-  // used to add g 5 mrad of acceleration error on top, counting the tilt twice), nor does the
+  // Cv t^2 + Cva t^3 + (Ca + sigma_b^2) t^4 / 4: the tilt prior adds nothing (adding
+  // it would put g 5 mrad of acceleration error on top, counting the tilt twice), nor does the
   // bias vertically (it stays vertical while the vehicle turns about the vertical)
   for (int a = 0; a < 3; ++a) {
     const double bias = a < 2 ? 0.03 * 0.03 : 0.0;

@@ -1,4 +1,4 @@
-// Numbers that parse but do not fit: each used to reach an undefined conversion (found with
+// Numbers that parse but do not fit: each would reach an undefined conversion (found with
 // the fuzz targets in fuzz/, inputs kept in fuzz/corpus/*/regression_*).
 #include <gtest/gtest.h>
 
