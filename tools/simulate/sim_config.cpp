@@ -84,8 +84,9 @@ SimConfig presetConfig(const std::string& name) {
     c.trajectory.legs = 4;
     c.trajectory.leg_length_m = 20.0;
     c.trajectory.leg_spacing_m = 3.0;
-    c.trajectory.max_yaw_rate_rad_s = 1.0;
-    c.trajectory.max_yaw_accel_rad_s2 = 0.6;
+    // Tight turns, so a 180 deg turn fits the lane spacing down to 60 % side overlap (1.85 m).
+    c.trajectory.max_yaw_rate_rad_s = 1.2;
+    c.trajectory.max_yaw_accel_rad_s2 = 3.0;
     c.trajectory.accel_s = 3.0;
   } else {
     throw unknownName("preset", name, presetNames());
