@@ -33,7 +33,30 @@ struct SimulateOptions {
   std::string imu_model;
   double accel_random_walk = 0, gyro_random_walk = 0;
   double imu_lead_s = 0;
+  std::vector<std::string> conditions;
+  double side_overlap = 0;
+  bool tie_lines = false, return_to_start = false;
 };
+
+/// Splits "a,b" and repeated options into names.
+std::vector<std::string> splitNames(const std::vector<std::string>& values) {
+  std::vector<std::string> names;
+  for (const auto& v : values) {
+    size_t begin = 0;
+    while (begin <= v.size()) {
+      const size_t comma = std::min(v.find(',', begin), v.size());
+      names.push_back(v.substr(begin, comma - begin));
+      begin = comma + 1;
+    }
+  }
+  return names;
+}
+
+std::string joined(const std::vector<std::string>& names) {
+  std::string out;
+  for (const auto& n : names) out += (out.empty() ? "" : ",") + n;
+  return out;
+}
 
 void runSimulate(const SimulateOptions& o, CLI::App& cmd) {
   simulate::SimConfig c = simulate::presetConfig(o.preset);
@@ -81,6 +104,17 @@ void runSimulate(const SimulateOptions& o, CLI::App& cmd) {
   }
   for (const auto& v : o.vision_loss) c.vision_loss.stretches.push_back(simulate::parseVisionLoss(v));
   if (cmd.count("--vision-loss-altitude")) c.vision_loss.altitude_m = o.vision_loss_altitude;
+  if (cmd.count("--side-overlap")) simulate::setSideOverlap(c, o.side_overlap);
+  if (o.tie_lines) c.trajectory.tie_lines = true;
+  if (o.return_to_start) c.trajectory.return_to_start = true;
+  // Last: hover and exposure changes are placed relative to the sequence's final length.
+  for (const auto& name : splitNames(o.conditions)) {
+    try {
+      simulate::applyCondition(c, name);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(std::string("--condition: ") + e.what());
+    }
+  }
   simulate::validate(c);
 
   const bool tty = isatty(STDERR_FILENO) != 0;
@@ -103,6 +137,11 @@ void runSimulate(const SimulateOptions& o, CLI::App& cmd) {
                c.trajectory.altitude_m, c.rig.tilt_deg, c.snow.enabled ? "on" : "off",
                c.trajectory.unlimited_turn_rate ? "unlimited" : "rate-limited",
                c.trajectory.follow_altitude ? "altitude-following" : "constant depth", o.out);
+  if (!o.conditions.empty() || cmd.count("--side-overlap") || o.tie_lines || o.return_to_start)
+    spdlog::info("simulate: conditions {}, lane spacing {:.2f} m (footprint {:.2f} m), tie line {}, return {}",
+                 o.conditions.empty() ? std::string("rest") : joined(splitNames(o.conditions)),
+                 c.trajectory.leg_spacing_m, simulate::footprintWidth(c), c.trajectory.tie_lines ? "yes" : "no",
+                 c.trajectory.return_to_start ? "yes" : "no");
   for (const auto& v : c.vision_loss.stretches)
     spdlog::info("simulate: vision loss '{}' from {} s for {} s", simulate::visionLossName(v.kind), v.start_s,
                  v.duration_s);
@@ -116,7 +155,8 @@ void runSimulate(const SimulateOptions& o, CLI::App& cmd) {
 const RegisterCommand kRegister{"simulate", [](CLI::App& app) {
   auto opts = std::make_shared<SimulateOptions>();
   CLI::App* cmd = app.add_subcommand("simulate", "Render a synthetic stereo-inertial AUV survey (EuRoC/ASL layout)");
-  cmd->add_option("preset", opts->preset, "paper-plain | paper-snow | short-plain | short-snow | short-outage | revisit")->required();
+  cmd->add_option("preset", opts->preset, "paper-plain | paper-snow | short-plain | short-snow | short-outage | revisit | survey-plain | "
+                  "survey-snow")->required();
   cmd->add_option("--out,-o", opts->out, "output dataset folder")->required();
   cmd->add_flag("--force", opts->force, "overwrite an existing dataset in the output folder");
   cmd->add_option("--frames", opts->frames, "number of stereo frames (cuts the preset)");
@@ -126,7 +166,7 @@ const RegisterCommand kRegister{"simulate", [](CLI::App& app) {
   // The model sets all four densities; the walk options then override its walks.
   cmd->add_option("--imu-model", opts->imu_model,
                   "IMU noise: adis16448 (default; bias walks as its datasheet's in-run stability) | "
-                  "euroc-kalibr (EuRoC's inflated Kalibr walks: a stress model)");
+                  "euroc-kalibr (EuRoC's inflated Kalibr walks, a stress model) | bmi088 (a consumer MEMS part)");
   cmd->add_option("--accel-random-walk", opts->accel_random_walk,
                   "accelerometer bias random walk [m/s^3/sqrt(Hz)] (default: the model's, adis16448 4e-5)");
   cmd->add_option("--gyro-random-walk", opts->gyro_random_walk,
@@ -153,6 +193,14 @@ const RegisterCommand kRegister{"simulate", [](CLI::App& app) {
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   cmd->add_option("--vision-loss-altitude", opts->vision_loss_altitude,
                   "floor distance in 'altitude' stretches [m] (default 15)");
+  cmd->add_option("--condition", opts->conditions,
+                  "NAME[,NAME...], repeatable: rest | moving | consumer-imu | waves | misaligned | time-offset | "
+                  "hover | exposure | sea (applied last, in order; docs/simulator.md)")
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  cmd->add_option("--side-overlap", opts->side_overlap,
+                  "side overlap of neighbouring lanes' footprints, 0.2-0.6: sets the lane spacing");
+  cmd->add_flag("--tie-lines", opts->tie_lines, "after the lanes, a tie line across all of them");
+  cmd->add_flag("--return-to-start", opts->return_to_start, "after the lanes, back along the first lane over the start");
   cmd->callback([opts, cmd] { runSimulate(*opts, *cmd); });
 }};
 

@@ -37,8 +37,8 @@ int64_t sampleTimeNs(int64_t k, double rate_hz) {
   return kStartTimeNs + std::llround(static_cast<double>(k) * period_ns);
 }
 
-ImuSimulator::ImuSimulator(const imu::ImuNoise& noise, double bg0, double ba0)
-    : noise_(noise), bg0_(bg0), ba0_(ba0) {}
+ImuSimulator::ImuSimulator(const imu::ImuNoise& noise, double bg0, double ba0, double time_offset_s)
+    : noise_(noise), bg0_(bg0), ba0_(ba0), time_offset_s_(time_offset_s) {}
 
 ImuSample ImuSimulator::idealSample(const BodyState& s, int64_t t_ns) {
   ImuSample m;
@@ -63,7 +63,7 @@ ImuSequence ImuSimulator::simulate(const Trajectory& traj, double end_s, std::mt
   for (int64_t k = 0; k < n; ++k) {
     const int64_t t_ns = sampleTimeNs(k, noise_.rate_hz);
     const BodyState s = traj.at(trajectoryTime(t_ns));
-    ImuSample m = idealSample(s, t_ns);
+    ImuSample m = idealSample(time_offset_s_ == 0 ? s : traj.at(trajectoryTime(t_ns) + time_offset_s_), t_ns);
     NavState gt;
     gt.t_ns = t_ns;
     gt.T_W_B = s.T_W_B();
@@ -104,14 +104,17 @@ void ImuSimulator::prependLead(ImuSequence& sequence, const Trajectory& trajecto
       ba -= sig.accel_walk * randn3();
     }
     const int64_t t_ns = sampleTimeNs(k, noise_.rate_hz);
-    ImuSample m = idealSample(parked, t_ns);
+    const bool moving = trajectory.movesBeforeStart();
+    const BodyState truth = moving ? trajectory.at(trajectoryTime(t_ns)) : parked;
+    ImuSample m = idealSample(moving ? trajectory.at(trajectoryTime(t_ns) + time_offset_s_) : parked, t_ns);
     if (!noiseless) {
       m.gyro_rad_s += bg + sig.gyro_white * randn3();
       m.accel_m_s2 += ba + sig.accel_white * randn3();
     }
     NavState gt;
     gt.t_ns = t_ns;
-    gt.T_W_B = parked.T_W_B();
+    gt.T_W_B = truth.T_W_B();
+    gt.v_W = truth.v_W;
     gt.gyro_bias_rad_s = bg;
     gt.accel_bias_m_s2 = ba;
     lead.samples[static_cast<size_t>(n + k)] = m;

@@ -28,12 +28,15 @@ struct ImuSequence {
 class ImuSimulator {
  public:
   /// @param initial_gyro_bias_sigma [rad/s], @param initial_accel_bias_sigma [m/s^2]
-  ImuSimulator(const imu::ImuNoise& noise, double initial_gyro_bias_sigma, double initial_accel_bias_sigma);
+  /// @param time_offset_s the sample stamped t measures the motion at t + time_offset_s
+  /// (a camera-IMU offset the calibration does not state); ground truth stays at t.
+  ImuSimulator(const imu::ImuNoise& noise, double initial_gyro_bias_sigma, double initial_accel_bias_sigma,
+               double time_offset_s = 0.0);
   /// Samples from t = 0 to `end_s` inclusive at noise.rate_hz. `noiseless` keeps biases at zero
   /// and adds no noise (used to check consistency).
   ImuSequence simulate(const Trajectory& trajectory, double end_s, std::mt19937& rng, bool noiseless = false) const;
   /// Prepends `lead_s` of samples before t = 0 with the vehicle parked where the trajectory
-  /// starts, as a real IMU streams before the camera's first frame (the odometry levels itself
+  /// starts (or, when it moves before t = 0, as the trajectory moves), as a real IMU streams before the camera's first frame (the odometry levels itself
   /// on the second before it). The biases walk back from the sequence's first; the noise comes
   /// from its own generator (`seed`), so the samples from t = 0 on are unchanged. The ground
   /// truth gets the lead too; the sequence writer writes it from the first frame on.
@@ -45,6 +48,7 @@ class ImuSimulator {
  private:
   imu::ImuNoise noise_;
   double bg0_, ba0_;
+  double time_offset_s_;
 };
 
 }  // namespace seavio::simulate

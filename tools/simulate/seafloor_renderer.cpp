@@ -280,6 +280,7 @@ int SeafloorRenderer::render(int cam, const Eigen::Isometry3d& T_W_B_in, double 
 
   image.create(H, W, CV_8UC1);
   const double sigma_n = L.sensor_noise_dn;
+  const float exposure = static_cast<float>(exposureGain(L, t_s));
   cv::parallel_for_(cv::Range(0, H), [&](const cv::Range& rows) {
     for (int v = rows.start; v < rows.end; ++v) {
       const float* in = radiance_.ptr<float>(v);
@@ -289,7 +290,7 @@ int SeafloorRenderer::render(int cam, const Eigen::Isometry3d& T_W_B_in, double 
         const uint64_t h = mix64(noise_key ^ mix64(static_cast<uint64_t>(v) * 65536u + static_cast<uint64_t>(u)));
         const double sum = static_cast<double>((h & 0xffff) + ((h >> 16) & 0xffff) + ((h >> 32) & 0xffff) + (h >> 48));
         const double n = (sum / 65536.0 - 2.0) * 1.7320508075688772;
-        out[u] = cv::saturate_cast<uint8_t>(in[u] + sigma_n * n);
+        out[u] = cv::saturate_cast<uint8_t>(exposure * in[u] + sigma_n * n);
       }
     }
   });

@@ -97,7 +97,8 @@ SequenceStats writeSequence(const SimConfig& config, const std::string& out_dir,
   const Trajectory traj(config.trajectory, renderer.seafloor().relief(), end_s);
 
   std::mt19937 rng(config.seed);
-  const ImuSimulator imu_sim(config.imu, config.initial_gyro_bias_sigma, config.initial_accel_bias_sigma);
+  const ImuSimulator imu_sim(config.imu, config.initial_gyro_bias_sigma, config.initial_accel_bias_sigma,
+                             config.imu_time_offset_s);
   ImuSequence imu = imu_sim.simulate(traj, end_s, rng);
   // Its own generator: the samples from the first frame on stay those of a render without lead.
   imu_sim.prependLead(imu, traj, config.imu_lead_s, config.seed ^ 0x9e3779b9u);

@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <numbers>
 #include <stdexcept>
 
 namespace seavio::simulate {
 
 std::vector<std::string> presetNames() {
-  return {"paper-plain", "paper-snow", "short-plain", "short-snow", "short-outage", "revisit"};
+  return {"paper-plain", "paper-snow", "short-plain", "short-snow", "short-outage", "revisit", "survey-plain",
+          "survey-snow"};
 }
 
 namespace {
@@ -21,13 +23,22 @@ std::invalid_argument unknownName(const char* what, const std::string& name, con
 }
 }  // namespace
 
-std::vector<std::string> imuModelNames() { return {"adis16448", "euroc-kalibr"}; }
+std::vector<std::string> imuModelNames() { return {"adis16448", "euroc-kalibr", "bmi088"}; }
 
 imu::ImuNoise imuModel(const std::string& name) {
   imu::ImuNoise n;  // EuRoC's sensor.yaml (core/imu/imu_noise.hpp): the densities of both models
   if (name == "adis16448") {
     n.gyroscope_random_walk = 2e-6;
     n.accelerometer_random_walk = 4e-5;
+  } else if (name == "bmi088") {
+    // Bosch BMI088 datasheet (BST-BMI088-DS001): gyro rate noise density 0.014 deg/s/sqrt(Hz),
+    // accelerometer noise density 175 ug/sqrt(Hz). The datasheet states no bias instability;
+    // the walks are the Allan-variance level of consumer MEMS parts (~10x the ADIS16448's in
+    // gyro, ~10x in accelerometer): over an hour 120 deg/h and 2.5 mg.
+    n.gyroscope_noise_density = 0.014 * std::numbers::pi / 180.0;
+    n.accelerometer_noise_density = 175e-6 * imu::kGravity_m_s2;
+    n.gyroscope_random_walk = 1e-5;
+    n.accelerometer_random_walk = 4e-4;
   } else if (name != "euroc-kalibr") {
     throw unknownName("IMU model", name, imuModelNames());
   }
@@ -63,11 +74,88 @@ SimConfig presetConfig(const std::string& name) {
     c = presetConfig("short-plain");
     c.preset = name;
     c.frames = 10000;
+  } else if (name == "survey-plain" || name == "survey-snow") {
+    // The paper's scenario as an independent renderer made it: down-looking stereo at 4 m,
+    // 640 x 480 at 10 Hz, 200 Hz IMU, a lawnmower of 20 m legs 3 m apart (~35 % side overlap
+    // at 60 deg hfov), relief, lights; 1200 frames fly the four lanes (~97 m).
+    c.frames = 1200;
+    c.frame_rate_hz = 10.0;
+    c.trajectory.speed_m_s = 0.83;
+    c.trajectory.legs = 4;
+    c.trajectory.leg_length_m = 20.0;
+    c.trajectory.leg_spacing_m = 3.0;
+    // Tight turns, so a 180 deg turn fits the lane spacing down to 60 % side overlap (1.85 m).
+    c.trajectory.max_yaw_rate_rad_s = 1.2;
+    c.trajectory.max_yaw_accel_rad_s2 = 3.0;
+    c.trajectory.accel_s = 3.0;
   } else {
     throw unknownName("preset", name, presetNames());
   }
   c.snow.enabled = name.ends_with("-snow");
   return c;
+}
+
+std::vector<std::string> conditionNames() {
+  return {"rest", "moving", "consumer-imu", "waves", "misaligned", "time-offset", "hover", "exposure", "sea"};
+}
+
+void applyCondition(SimConfig& c, const std::string& name) {
+  auto& t = c.trajectory;
+  const double duration_s = (c.frames - 1) / std::max(c.frame_rate_hz, 1e-9);
+  if (name == "rest") {
+    // The reference: parked for still_s, then the speed ramp (the presets' start).
+  } else if (name == "moving") {
+    // A watchdog restart mid-dive: the ramp from 0 began 0.5 s before the IMU's first sample
+    // and runs on past the first frame, so the vehicle moves and accelerates throughout the lead.
+    t.still_s = 0.0;
+    t.accel_s = 3.0;
+    t.begin_s = -(c.imu_lead_s + 0.5);
+  } else if (name == "consumer-imu") {
+    const double rate_hz = c.imu.rate_hz;
+    c.imu = imuModel("bmi088");
+    c.imu.rate_hz = rate_hz;
+    // Turn-on bias spread of an uncalibrated consumer part: ~0.1 deg/s, ~3 mg per axis.
+    c.initial_gyro_bias_sigma = 0.1 * std::numbers::pi / 180.0;
+    c.initial_accel_bias_sigma = 0.03;
+  } else if (name == "waves") {
+    // Swell felt near the surface: +-3 deg roll, +-2.5 deg pitch, ~0.17 m heave, periods 1.7 to 6.3 s.
+    t.roll_amplitude_deg = t.pitch_amplitude_deg = 0.0;
+    t.waves = {{1.7, 0.7, 0.6, 0.02, 0.0}, {3.4, 1.3, 1.0, 0.05, 2.1}, {6.3, 1.0, 0.9, 0.10, 4.2}};
+  } else if (name == "misaligned") {
+    c.rig.mount_error_deg = {0.6, -0.7, 0.4};  // 1.0 deg off the drawing, stated in T_BS
+  } else if (name == "time-offset") {
+    c.imu_time_offset_s = 0.004;
+  } else if (name == "hover") {
+    t.hover_s = 6.0;
+    t.hover_ramp_s = 2.0;
+    t.hover_start_s = 0.4 * duration_s;
+  } else if (name == "exposure") {
+    // Auto-exposure steps down and up, and a slow drift of the gain on top.
+    c.lighting.exposure_steps = {{0.3 * duration_s, 0.75}, {0.65 * duration_s, 1.25}};
+    c.lighting.exposure_drift = 0.1;
+    c.lighting.exposure_drift_period_s = 45.0;
+  } else if (name == "sea") {
+    for (const char* part : {"moving", "consumer-imu", "waves", "misaligned", "time-offset"}) applyCondition(c, part);
+  } else {
+    throw unknownName("condition", name, conditionNames());
+  }
+}
+
+double footprintWidth(const SimConfig& c) {
+  return 2.0 * c.trajectory.altitude_m * std::tan(0.5 * c.rig.hfov_deg * std::numbers::pi / 180.0);
+}
+
+void setSideOverlap(SimConfig& c, double overlap) {
+  if (!(overlap >= 0.2 && overlap <= 0.6))
+    throw std::invalid_argument("--side-overlap: must be in [0.2, 0.6], got " + std::to_string(overlap));
+  c.trajectory.leg_spacing_m = footprintWidth(c) * (1.0 - overlap);
+}
+
+double exposureGain(const LightingConfig& l, double t_s) {
+  double gain = 1.0;
+  for (const auto& [start_s, g] : l.exposure_steps)
+    if (t_s >= start_s) gain = g;
+  return gain * (1.0 + l.exposure_drift * std::sin(2.0 * std::numbers::pi * t_s / l.exposure_drift_period_s));
 }
 
 void validate(const SimConfig& c) {
@@ -101,6 +189,22 @@ void validate(const SimConfig& c) {
   check(t.roll_period_s > 0 && t.pitch_period_s > 0, "sway", "periods must be > 0 s");
   check(std::abs(t.roll_amplitude_deg) <= 10 && std::abs(t.pitch_amplitude_deg) <= 10, "sway",
         "amplitudes must be <= 10 deg");
+  check(t.begin_s >= -10 && t.begin_s <= 0, "begin-s", "must be in [-10, 0] s");
+  check(t.hover_s >= 0 && t.hover_ramp_s > 0 && t.hover_start_s >= t.begin_s, "hover",
+        "duration >= 0 s, ramp > 0 s, start after the path begins");
+  double wave_roll = 0, wave_pitch = 0, wave_heave = 0;
+  for (const auto& w : t.waves) {
+    check(w.period_s > 0.5, "waves", "periods must be > 0.5 s");
+    wave_roll += std::abs(w.roll_deg), wave_pitch += std::abs(w.pitch_deg), wave_heave += std::abs(w.heave_m);
+  }
+  check(wave_roll <= 10 && wave_pitch <= 10, "waves", "roll and pitch amplitudes must sum to <= 10 deg");
+  check(wave_heave <= 0.25 * t.altitude_m, "waves", "heave amplitudes must sum to <= a quarter of the altitude");
+  check(std::abs(c.imu_time_offset_s) <= 0.05, "imu-time-offset", "must be in [-50, 50] ms");
+  check(r.mount_error_deg.cwiseAbs().maxCoeff() <= 5, "mount-error", "must be <= 5 deg about each axis");
+  for (const auto& [start_s, gain] : c.lighting.exposure_steps)
+    check(gain > 0 && gain <= 4, "exposure", "step gains must be in (0, 4]");
+  check(c.lighting.exposure_drift >= 0 && c.lighting.exposure_drift < 0.5 && c.lighting.exposure_drift_period_s > 0,
+        "exposure", "drift in [0, 0.5) and its period > 0 s");
   check(c.seafloor.resolution_m > 0.0005 && c.seafloor.resolution_m <= 0.05, "seafloor resolution",
         "must be in (0.5, 50] mm");
   check(c.seafloor.tile_size_m >= 0.5 && c.seafloor.tile_size_m <= 16, "seafloor tile", "must be in [0.5, 16] m");

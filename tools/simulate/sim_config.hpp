@@ -30,10 +30,24 @@ struct RigConfig {
   Eigen::Vector2d principal_offset1_px{-3.0, 2.0};    ///< same for camera 1 [px]
   /// Midpoint of the two optical centres in the body (IMU) frame [m]: a few cm lever arm.
   Eigen::Vector3d lever_arm_m{0.06, 0.0, -0.08};
+  /// Error of the mount: rotation of the whole rig about body x, y, z [deg] on top of the
+  /// nominal down-looking mount. The written calibration (sensor.yaml T_BS) includes it: a
+  /// calibrated rig whose mount is not the drawing's.
+  Eigen::Vector3d mount_error_deg{0.0, 0.0, 0.0};
+};
+
+/// One sinusoid of wave-induced motion: roll, pitch and heave in phase-shifted sines of one
+/// period, as a vehicle near the surface feels a swell.
+struct WaveComponent {
+  double period_s = 5.0;       ///< [s]
+  double roll_deg = 0.0;       ///< amplitude [deg]
+  double pitch_deg = 0.0;      ///< amplitude [deg]
+  double heave_m = 0.0;        ///< amplitude [m]
+  double phase_rad = 0.0;      ///< phase of the roll; pitch and heave lag by 1 and 2 rad
 };
 
 /// Survey path: lawnmower legs along W x joined by 180 deg turns (two 90 deg yaw pulses
-/// with a straight crossing between them), starting from rest.
+/// with a straight crossing between them), starting from rest (or already moving).
 struct TrajectoryConfig {
   double speed_m_s = 1.5;          ///< cruise speed [m/s]
   double altitude_m = 4.0;         ///< height above the seafloor relief [m]
@@ -48,6 +62,21 @@ struct TrajectoryConfig {
   double accel_s = 4.0;            ///< smooth speed ramp from rest to cruise [s]
   double roll_amplitude_deg = 1.0, roll_period_s = 7.0;    ///< sway, faded in with speed
   double pitch_amplitude_deg = 0.7, pitch_period_s = 11.0;
+  /// Trajectory time at which the path begins (its still period, then its speed ramp) [s];
+  /// < 0: the vehicle is already under way before the first frame (t = 0), and the IMU's
+  /// lead-in samples see that motion instead of a parked vehicle.
+  double begin_s = 0.0;
+  /// Stop and hover: decelerate over hover_ramp_s from hover_start_s (trajectory time),
+  /// hold still for hover_s, accelerate back over hover_ramp_s. hover_s = 0: none.
+  double hover_start_s = 0.0, hover_s = 0.0, hover_ramp_s = 2.0;
+  /// Wave-induced roll, pitch and heave, added to the sway (not faded with speed: the sea
+  /// moves a parked vehicle too).
+  std::vector<WaveComponent> waves;
+  /// After the `legs` lanes: a tie line across all of them through the middle of the block.
+  bool tie_lines = false;
+  /// After the lanes (and the tie line): back across the block and along the first lane over
+  /// the start point. Either option ends the lawnmower's bouncing: the path then runs straight on.
+  bool return_to_start = false;
 };
 
 /// Procedural seafloor, deterministic in (x, y, seed).
@@ -73,6 +102,12 @@ struct LightingConfig {
   double vignetting = 0.6;           ///< 0 = none, 1 = full cos^4
   double target_grey = 120.0;        ///< mean grey of a flat floor at the nominal altitude [DN]
   double sensor_noise_dn = 1.5;      ///< Gaussian read noise [DN]
+  /// Exposure / gain changes of the camera (both cameras alike): the image brightness is
+  /// multiplied by the step gain in force (steps at trajectory times, each holding until the
+  /// next) and by 1 + exposure_drift * sin(2 pi t / exposure_drift_period_s).
+  std::vector<std::pair<double, double>> exposure_steps;  ///< (start [s], gain)
+  double exposure_drift = 0.0;                            ///< relative amplitude
+  double exposure_drift_period_s = 60.0;                  ///< [s]
 };
 
 /// Marine snow: particles fixed in W cells, drifting slowly and wrapping inside their cell.
@@ -139,6 +174,9 @@ struct SimConfig {
   /// IMU samples before the first frame [s], the vehicle parked: a real IMU streams before the
   /// camera starts, and the odometry levels itself over the second before its first frame.
   double imu_lead_s = 1.0;
+  /// Camera-IMU time offset not stated in the calibration [s]: the IMU sample stamped t
+  /// measures the motion at ground-truth (and camera) time t + imu_time_offset_s.
+  double imu_time_offset_s = 0.0;
   RigConfig rig;
   TrajectoryConfig trajectory;
   SeafloorConfig seafloor;
@@ -151,8 +189,23 @@ struct SimConfig {
 std::vector<std::string> presetNames();
 /// "paper-plain", "paper-snow" (section IV: 3000 frames, 5 legs over 400 x 250 m),
 /// "short-plain", "short-snow" (~77 m, 10 Hz, one turn), "short-outage" (short-plain with a
-/// 3 s blackout at 20 s and a 3 s turbidity stretch at 50 s). Throws std::invalid_argument.
+/// 3 s blackout at 20 s and a 3 s turbidity stretch at 50 s), "revisit",
+/// "survey-plain", "survey-snow" (the paper's scenario as an independent renderer made it:
+/// 4 m altitude, 10 Hz, 20 m legs 3 m apart, 1200 frames, ~97 m). Throws std::invalid_argument.
 SimConfig presetConfig(const std::string& name);
+
+/// Names accepted by applyCondition.
+std::vector<std::string> conditionNames();
+/// Applies a named condition to a config (composable; throws std::invalid_argument naming the valid ones).
+void applyCondition(SimConfig& config, const std::string& name);
+
+/// Across-track width of camera 0's footprint on a flat floor at the survey altitude [m].
+double footprintWidth(const SimConfig& config);
+/// Lane spacing for a side overlap of neighbouring lanes' footprints (fraction in [0.2, 0.6]);
+/// throws std::invalid_argument outside.
+void setSideOverlap(SimConfig& config, double overlap);
+/// Brightness factor of the camera at trajectory time t_s (exposure steps and drift).
+double exposureGain(const LightingConfig& lighting, double t_s);
 /// Throws std::invalid_argument naming the first bad parameter (option-style key).
 void validate(const SimConfig& config);
 /// Bounds of a stretch in integer ns since the first frame: [start, end), rounded to 1 ns.

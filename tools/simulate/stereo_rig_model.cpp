@@ -26,7 +26,14 @@ StereoRigModel::StereoRigModel(const RigConfig& c) {
   R_B_Cdown << 0, -1, 0, -1, 0, 0, 0, 0, -1;
   const double tilt = c.tilt_deg * std::numbers::pi / 180.0;
   // Rotation about body y by -tilt swings the optical axis from -z towards +x (forward).
-  const Eigen::Matrix3d R_B_C0 = Eigen::AngleAxisd(-tilt, Eigen::Vector3d::UnitY()).toRotationMatrix() * R_B_Cdown;
+  Eigen::Matrix3d R_B_C0 = Eigen::AngleAxisd(-tilt, Eigen::Vector3d::UnitY()).toRotationMatrix() * R_B_Cdown;
+  if (!c.mount_error_deg.isZero()) {
+    const Eigen::Vector3d e = c.mount_error_deg * std::numbers::pi / 180.0;
+    R_B_C0 = (Eigen::AngleAxisd(e.z(), Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(e.y(), Eigen::Vector3d::UnitY()) *
+              Eigen::AngleAxisd(e.x(), Eigen::Vector3d::UnitX()))
+                 .toRotationMatrix() *
+             R_B_C0;
+  }
   const Eigen::Vector3d axis = Eigen::Vector3d(0.3, 0.5, 0.8).normalized();
   const Eigen::Matrix3d R_C0_C1 =
       Eigen::AngleAxisd(c.relative_rotation_deg * std::numbers::pi / 180.0, axis).toRotationMatrix();

@@ -41,7 +41,7 @@ Eigen::Isometry3d BodyState::T_W_B() const {
 }
 
 Trajectory::Trajectory(const TrajectoryConfig& c, const ReliefField& relief, double duration_s)
-    : config_(c), relief_(relief), duration_s_(duration_s) {
+    : config_(c), relief_(relief), duration_s_(duration_s), span_s_(duration_s - c.begin_s) {
   z_const_ = relief.eval(0, 0).h + c.altitude_m;
   const double V = c.speed_m_s;
   // Turn: two 90 deg pulses with a straight crossing between them. Start from the yaw rate
@@ -76,12 +76,34 @@ Trajectory::Trajectory(const TrajectoryConfig& c, const ReliefField& relief, dou
   }
   const double turn_time = 2 * ramp + plateau;
   const double crossing = std::max(0.0, c.leg_spacing_m - fwd - lat) / V;
+  planLanes(V, ramp, plateau, rate, turn_time, crossing, fwd, lat);
+  if (c.tie_lines || c.return_to_start) planTieAndReturn(V, ramp, plateau, rate, fwd, lat);
+  if (c.hover_s > 0) {
+    // The stop costs one ramp (two half-speed ramps) plus the hold: later turns move by it,
+    // so the lanes keep their geometry.
+    const double tau_h = c.hover_start_s - c.begin_s;
+    for (auto& p : pulses_)
+      if (p.t0 >= tau_h) p.t0 += c.hover_ramp_s + c.hover_s;
+    hover_on_ = true;
+  }
+  const auto n = static_cast<size_t>(std::ceil(span_s_ / knot_dt_)) + 2;
+  knots_.resize(n);
+  knots_[0] = Eigen::Vector2d::Zero();
+  for (size_t k = 1; k < n; ++k)
+    knots_[k] = knots_[k - 1] + integrate((k - 1) * knot_dt_, k * knot_dt_);
+}
+
+void Trajectory::planLanes(double V, double ramp, double plateau, double rate, double turn_time, double crossing,
+                           double fwd, double lat) {
+  const auto& c = config_;
   const double radius = 0.5 * (fwd + lat);  // forward overshoot of a turn, roughly
-  // Lanes bounce 0, 1, ..., legs-1, legs-2, ..., 0, 1, ... so the survey stays in its box.
+  // Lanes bounce 0, 1, ..., legs-1, legs-2, ..., 0, 1, ... so the survey stays in its box;
+  // with a tie line or a return the lanes are flown once and the plan continues from there.
+  const bool once = c.tie_lines || c.return_to_start;
   double t = c.still_s + c.accel_s + (c.leg_length_m - 0.5 * V * c.accel_s - radius) / V;
   int lane = 0, dir = 1;
   bool heading_plus_x = true;
-  while (t < duration_s + 1.0) {
+  while (once ? lane + 1 < c.legs : t < span_s_ + 1.0) {
     if (c.legs == 1) dir = (lane == 0) ? 1 : -1;
     else if (lane + dir < 0 || lane + dir >= c.legs) dir = -dir;
     const double sign = (heading_plus_x ? 1.0 : -1.0) * dir;
@@ -91,19 +113,62 @@ Trajectory::Trajectory(const TrajectoryConfig& c, const ReliefField& relief, dou
     heading_plus_x = !heading_plus_x;
     t += 2 * turn_time + crossing + (c.leg_length_m - 2 * radius) / V;
   }
-  const auto n = static_cast<size_t>(std::ceil(duration_s / knot_dt_)) + 2;
-  knots_.resize(n);
-  knots_[0] = Eigen::Vector2d::Zero();
-  for (size_t k = 1; k < n; ++k)
-    knots_[k] = knots_[k - 1] + integrate((k - 1) * knot_dt_, k * knot_dt_);
+  plan_end_s_ = t;
 }
 
-void Trajectory::speed(double t, double* s, double* ds) const {
+void Trajectory::planTieAndReturn(double V, double ramp, double plateau, double rate, double fwd, double lat) {
+  const auto& c = config_;
+  // Where the last lane's turn would begin: exact pose from the lanes planned so far.
+  double tau = plan_end_s_;
+  Eigen::Vector2d P = integrate(0.0, tau);
+  double psi, r;
+  yaw(tau, &psi, &r);
+  Eigen::Vector2d h(std::round(std::cos(psi)), std::round(std::sin(psi)));
+  const double turn_time = 2 * ramp + plateau;
+  // Turn 90 deg towards `to` so that the position along the old heading ends at `target`.
+  auto turnAt = [&](const Eigen::Vector2d& to, double target) {
+    const double dist = std::max(0.0, target - P.dot(h) - fwd);
+    tau += dist / V;
+    P += dist * h;
+    const double side = h.x() * to.y() - h.y() * to.x();
+    pulses_.push_back({tau, ramp, plateau, rate, side});
+    P += fwd * h + lat * to;
+    h = to;
+    tau += turn_time;
+  };
+  const Eigen::Vector2d ex(1, 0), ey(0, 1);
+  const double L = c.leg_length_m, s = c.leg_spacing_m, approach = lat + 2.0;
+  if (c.tie_lines) {
+    // Out to a lane beyond the block, back to its middle, then across every lane.
+    const double hx = h.x();
+    turnAt(ey, P.dot(h) + fwd);
+    turnAt(-hx * ex, c.legs * s);
+    turnAt(-ey, -hx * 0.5 * L);  // along -hx: coordinate -x, so target -L/2
+    if (c.return_to_start) turnAt(-ex, 0.0);  // onto the first lane's line, back over the start
+  } else {
+    // Past the block's end, across to the first lane's line, along it over the start.
+    const double hx = h.x();
+    turnAt(-ey, hx > 0 ? L + approach : approach);
+    turnAt(-hx * ex, 0.0);
+  }
+}
+
+void Trajectory::speed(double tau, double* s, double* ds) const {
   const double V = config_.speed_m_s;
-  const double u = (t - config_.still_s) / config_.accel_s;
+  const double u = (tau - config_.still_s) / config_.accel_s;
   if (u <= 0) *s = 0, *ds = 0;
   else if (u >= 1) *s = V, *ds = 0;
   else *s = V * smooth(u), *ds = V * smoothDeriv(u) / config_.accel_s;
+  if (!hover_on_) return;
+  // Stop and hover: the speed times a factor going 1 -> 0, held, 0 -> 1.
+  const double r = config_.hover_ramp_s, t0 = config_.hover_start_s - config_.begin_s;
+  const double t1 = t0 + r + config_.hover_s;
+  double f = 1, df = 0;
+  if (tau > t0 && tau < t0 + r) f = 1 - smooth((tau - t0) / r), df = -smoothDeriv((tau - t0) / r) / r;
+  else if (tau >= t0 + r && tau <= t1) f = 0;
+  else if (tau > t1 && tau < t1 + r) f = smooth((tau - t1) / r), df = smoothDeriv((tau - t1) / r) / r;
+  *ds = *ds * f + *s * df;
+  *s *= f;
 }
 
 void Trajectory::yaw(double t, double* psi, double* rate) const {
@@ -137,6 +202,10 @@ Eigen::Vector2d Trajectory::integrate(double a, double b) const {
   };
   add(config_.still_s);
   add(config_.still_s + config_.accel_s);
+  if (hover_on_) {
+    const double t0 = config_.hover_start_s - config_.begin_s, r = config_.hover_ramp_s;
+    add(t0), add(t0 + r), add(t0 + r + config_.hover_s), add(t0 + 2 * r + config_.hover_s);
+  }
   for (const auto& p : pulses_) {
     add(p.t0), add(p.t0 + p.ramp), add(p.t0 + p.ramp + p.plateau), add(p.t0 + 2 * p.ramp + p.plateau);
   }
@@ -149,15 +218,39 @@ Eigen::Vector2d Trajectory::integrate(double a, double b) const {
   return sum;
 }
 
+void Trajectory::swayAndWaves(double t, double g, double dg, Eigen::Vector3d* ang, Eigen::Vector3d* rate,
+                              double* heave, double* dheave, double* ddheave) const {
+  // Sway fades in with speed (g = speed / cruise) so the vehicle is perfectly still at the start.
+  const auto& c = config_;
+  const double wr = 2 * kPi / c.roll_period_s, wp = 2 * kPi / c.pitch_period_s;
+  const double Ar = c.roll_amplitude_deg * kPi / 180, Ap = c.pitch_amplitude_deg * kPi / 180;
+  double roll = Ar * g * std::sin(wr * t), droll = Ar * (dg * std::sin(wr * t) + g * wr * std::cos(wr * t));
+  double pitch = Ap * g * std::sin(wp * t + 1.0),
+         dpitch = Ap * (dg * std::sin(wp * t + 1.0) + g * wp * std::cos(wp * t + 1.0));
+  *heave = *dheave = *ddheave = 0;
+  for (const auto& w : c.waves) {
+    const double om = 2 * kPi / w.period_s, ph = om * t + w.phase_rad;
+    const double ar = w.roll_deg * kPi / 180, ap = w.pitch_deg * kPi / 180;
+    roll += ar * std::sin(ph), droll += ar * om * std::cos(ph);
+    pitch += ap * std::sin(ph - 1.0), dpitch += ap * om * std::cos(ph - 1.0);
+    *heave += w.heave_m * std::sin(ph - 2.0);
+    *dheave += w.heave_m * om * std::cos(ph - 2.0);
+    *ddheave -= w.heave_m * om * om * std::sin(ph - 2.0);
+  }
+  *ang = {roll, pitch, 0};
+  *rate = {droll, dpitch, 0};
+}
+
 BodyState Trajectory::at(double t) const {
   BodyState st;
   st.t_s = t;
-  const double tc = std::clamp(t, 0.0, duration_s_ + 0.5);
+  const double tau = t - config_.begin_s;  // path time: the plan's clock
+  const double tc = std::clamp(tau, 0.0, span_s_ + 0.5);
   const auto k = std::min(static_cast<size_t>(tc / knot_dt_), knots_.size() - 1);
-  const Eigen::Vector2d pxy = knots_[k] + integrate(k * knot_dt_, t);
+  const Eigen::Vector2d pxy = knots_[k] + integrate(k * knot_dt_, tau);
   double s, ds, psi, r;
-  speed(t, &s, &ds);
-  yaw(t, &psi, &r);
+  speed(tau, &s, &ds);
+  yaw(tau, &psi, &r);
   const Eigen::Vector2d e(std::cos(psi), std::sin(psi)), n(-std::sin(psi), std::cos(psi));
   const Eigen::Vector2d vxy = s * e, axy = ds * e + s * r * n;
   double z = z_const_, vz = 0, az = 0;
@@ -168,29 +261,26 @@ BodyState Trajectory::at(double t) const {
     az = H.hxx * vxy.x() * vxy.x() + 2 * H.hxy * vxy.x() * vxy.y() + H.hyy * vxy.y() * vxy.y() +
          H.hx * axy.x() + H.hy * axy.y();
   }
-  st.p_W = {pxy.x(), pxy.y(), z};
-  st.v_W = {vxy.x(), vxy.y(), vz};
-  st.a_W = {axy.x(), axy.y(), az};
-  // Sway fades in with speed so the vehicle is perfectly still at the start.
-  const double g = s / config_.speed_m_s, dg = ds / config_.speed_m_s;
-  const double wr = 2 * kPi / config_.roll_period_s, wp = 2 * kPi / config_.pitch_period_s;
-  const double Ar = config_.roll_amplitude_deg * kPi / 180, Ap = config_.pitch_amplitude_deg * kPi / 180;
-  const double roll = Ar * g * std::sin(wr * t), droll = Ar * (dg * std::sin(wr * t) + g * wr * std::cos(wr * t));
-  const double pitch = Ap * g * std::sin(wp * t + 1.0),
-               dpitch = Ap * (dg * std::sin(wp * t + 1.0) + g * wp * std::cos(wp * t + 1.0));
+  Eigen::Vector3d ang, dang;
+  double heave, dheave, ddheave;
+  swayAndWaves(t, s / config_.speed_m_s, ds / config_.speed_m_s, &ang, &dang, &heave, &dheave, &ddheave);
+  st.p_W = {pxy.x(), pxy.y(), z + heave};
+  st.v_W = {vxy.x(), vxy.y(), vz + dheave};
+  st.a_W = {axy.x(), axy.y(), az + ddheave};
   const Eigen::Matrix3d Rz = Eigen::AngleAxisd(psi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  const Eigen::Matrix3d Ry = Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()).toRotationMatrix();
-  const Eigen::Matrix3d Rx = Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  const Eigen::Matrix3d Ry = Eigen::AngleAxisd(ang.y(), Eigen::Vector3d::UnitY()).toRotationMatrix();
+  const Eigen::Matrix3d Rx = Eigen::AngleAxisd(ang.x(), Eigen::Vector3d::UnitX()).toRotationMatrix();
   st.R_W_B = Rz * Ry * Rx;
   st.omega_B = Rx.transpose() * Ry.transpose() * Eigen::Vector3d(0, 0, r) +
-               Rx.transpose() * Eigen::Vector3d(0, dpitch, 0) + Eigen::Vector3d(droll, 0, 0);
+               Rx.transpose() * Eigen::Vector3d(0, dang.y(), 0) + Eigen::Vector3d(dang.x(), 0, 0);
   return st;
 }
 
 double Trajectory::length() const {
+  // From the first frame (t = 0) on.
   double len = 0;
-  const double dt = 0.5;
-  for (double t = 0; t < duration_s_; t += dt) len += integrate(t, std::min(t + dt, duration_s_)).norm();
+  const double dt = 0.5, end = span_s_;
+  for (double tau = -config_.begin_s; tau < end; tau += dt) len += integrate(tau, std::min(tau + dt, end)).norm();
   return len;
 }
 
