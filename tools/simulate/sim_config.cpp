@@ -33,8 +33,8 @@ imu::ImuNoise imuModel(const std::string& name) {
   } else if (name == "bmi088") {
     // Bosch BMI088 datasheet (BST-BMI088-DS001): gyro rate noise density 0.014 deg/s/sqrt(Hz),
     // accelerometer noise density 175 ug/sqrt(Hz). The datasheet states no bias instability;
-    // the walks are the Allan-variance level of consumer MEMS parts (~10x the ADIS16448's in
-    // gyro, ~10x in accelerometer): over an hour 120 deg/h and 2.5 mg.
+    // the walks are the Allan-variance level of consumer MEMS parts (5x the ADIS16448's in
+    // gyro, 10x in accelerometer): over an hour 120 deg/h and 2.4 mg.
     n.gyroscope_noise_density = 0.014 * std::numbers::pi / 180.0;
     n.accelerometer_noise_density = 175e-6 * imu::kGravity_m_s2;
     n.gyroscope_random_walk = 1e-5;
