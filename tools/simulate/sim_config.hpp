@@ -158,13 +158,9 @@ VisionLossStretch parseVisionLoss(const std::string& text);
 ///    bias stability (14.5 deg/h, 0.25 mg).
 ///  - "euroc-kalibr": the walks of EuRoC's Kalibr sensor.yaml as well (1.9393e-5, 3e-3), which
 ///    are inflated for estimator robustness: as a truth model they wander 240 deg/h and 18 mg
-<<<<<<< HEAD
-///    over an hour, 16x and 72x the datasheet: a stress model.
-=======
 ///    over an hour, 16x and 72x the datasheet; a stress model.
 ///  - "bmi088": a consumer MEMS part, the Bosch BMI088 datasheet's noise densities
 ///    (0.014 deg/s/sqrt(Hz), 175 ug/sqrt(Hz)) and consumer-grade bias walks (sim_config.cpp).
->>>>>>> sim
 /// Throws std::invalid_argument naming the valid models.
 imu::ImuNoise imuModel(const std::string& name);
 std::vector<std::string> imuModelNames();
