@@ -11,6 +11,7 @@
 #include <spdlog/spdlog.h>
 
 #include "daemon/timestamp_monitor.hpp"
+#include "drivers/source/imu_horizon.hpp"
 #include "drivers/lcm/lcm_convert.hpp"
 
 namespace seavio::daemon {
@@ -134,6 +135,7 @@ bool Daemon::start() {
   publisher_done_ = false;
   global_done_ = false;
   running_ = true;
+  if (recorder_) recorder_->start([this] { scheduleThisThread(ThreadRole::kBackground, "recorder"); });
   camera_thread_ = std::thread([this] { cameraLoop(); });
   if (imu_src_) imu_thread_ = std::thread([this] { imuLoop(); });
   estimator_thread_ = std::thread([this] { estimatorLoop(); });
@@ -151,6 +153,7 @@ void Daemon::stop() {
   stop_pipeline_ = true;
   joinIf(estimator_thread_);
   health_.frames_dropped_shutdown += frames_->drain();
+  if (recorder_) recorder_->stop();  // after the estimator: everything it consumed is written
   // No request comes after the estimator: the ICP thread finishes the one it holds (one
   // refinement, milliseconds) and every request still queued is counted, not refined.
   stop_global_ = true;
@@ -212,6 +215,7 @@ bool Daemon::schedulingOk() const {
 
 void Daemon::cameraLoop() {
   scheduleThisThread(ThreadRole::kFramePath, "camera");
+  const auto* horizon = dynamic_cast<const drivers::ImuHorizonReporter*>(camera_.get());
   TimestampMonitor stamps(static_cast<int64_t>(cfg_.frame_gap_ms) * 1'000'000);
   bool have_seq = false;
   uint64_t last_seq = 0;
@@ -226,6 +230,7 @@ void Daemon::cameraLoop() {
       continue;
     }
     item.recv_ns = monotonicNowNs();
+    if (horizon) item.has_imu_horizon = horizon->imuHorizon(item.imu_horizon_ns);
     // Frames lost before reaching us (camera, network, UDP buffer) show as sequence gaps.
     if (have_seq && item.frame.seq > last_seq + 1) health_.frames_missing_upstream += item.frame.seq - last_seq - 1;
     have_seq = true;
@@ -279,25 +284,53 @@ void Daemon::imuLoop() {
   imu_ended_ = true;
 }
 
+void Daemon::takeImu(const ImuSample& s) {
+  last_imu_ns_ = s.t_ns;
+  imu_seen_ = true;
+  imu_pending_.push_back(s);
+  if (recorder_) recorder_->imu(s);
+}
+
+void Daemon::collectImuUpTo(int64_t horizon_ns) {
+  // Exactly the samples the recording estimator held: every one up to the horizon, waiting
+  // for them however long (replay pushes block), none after it.
+  ImuSample s;
+  while (!stop_pipeline_) {
+    if (imu_lookahead_) {
+      if (imu_lookahead_->t_ns > horizon_ns) return;
+      takeImu(*imu_lookahead_);
+      imu_lookahead_.reset();
+      continue;
+    }
+    if (imu_seen_ && last_imu_ns_ >= horizon_ns) return;
+    const bool ended = imu_ended_;
+    if (imu_->tryPop(s)) {
+      imu_lookahead_ = s;
+    } else if (ended) {
+      return;
+    } else if (imu_->popWaitFor(s, kPoll)) {
+      imu_lookahead_ = s;
+    }
+  }
+}
+
 void Daemon::collectImu(int64_t up_to_ns, bool wait) {
   const int64_t hold_ns = static_cast<int64_t>(cfg_.imu_hold_ms) * 1'000'000;
   const int64_t deadline = monotonicNowNs() + static_cast<int64_t>(cfg_.imu_wait_ms) * 1'000'000;
   ImuSample s;
   for (;;) {
-    while (imu_->tryPop(s)) {
-      last_imu_ns_ = s.t_ns;
-      imu_pending_.push_back(s);
-    }
+    while (imu_->tryPop(s)) takeImu(s);
     if (!wait || last_imu_ns_ > up_to_ns || stop_pipeline_ || imu_ended_) break;
     // Close enough: the odometry holds the newest sample's rates over the remaining gap.
     if (hold_ns > 0 && last_imu_ns_ > 0 && last_imu_ns_ >= up_to_ns - hold_ns) break;
     const int64_t now = monotonicNowNs();
     if (now >= deadline) break;
-    if (imu_->popWaitFor(s, std::chrono::nanoseconds(std::min<int64_t>(deadline - now, 5'000'000)))) {
-      last_imu_ns_ = s.t_ns;
-      imu_pending_.push_back(s);
-    }
+    if (imu_->popWaitFor(s, std::chrono::nanoseconds(std::min<int64_t>(deadline - now, 5'000'000)))) takeImu(s);
   }
+  buildImuBatch(up_to_ns);
+}
+
+void Daemon::buildImuBatch(int64_t up_to_ns) {
   // Same hand-over as `seavio run`: the last sample at or before the previous frame, every
   // sample up to this frame, and the first one after it, so the odometry can interpolate
   // at both frame times.
@@ -348,7 +381,12 @@ void Daemon::prepare(StereoFrame& f) {
 void Daemon::estimate(FrameItem& item) {
   const int64_t t0 = monotonicNowNs();
   health_.at(Stage::kQueue).record(msBetween(item.recv_ns, t0));
-  collectImu(item.frame.t_ns, true);
+  if (item.has_imu_horizon) {
+    if (item.imu_horizon_ns != drivers::ImuHorizonReporter::kNoImu) collectImuUpTo(item.imu_horizon_ns);
+    buildImuBatch(item.frame.t_ns);
+  } else {
+    collectImu(item.frame.t_ns, true);
+  }
   health_.at(Stage::kImuWait).record(msBetween(t0, monotonicNowNs()));
   OdometryResult r;
   try {
@@ -357,6 +395,7 @@ void Daemon::estimate(FrameItem& item) {
         item.frame.left.size() != item.frame.right.size()) {
       throw std::runtime_error("empty or mismatched stereo images");
     }
+    if (recorder_) recorder_->frame(item.frame);
     if (global_) global_->recv_ns_ = item.recv_ns;  // for the request the odometry submits
     r = processor_->process(item.frame, imu_batch_);
   } catch (const std::exception&) {
@@ -570,6 +609,13 @@ seavio_lcm::status_t Daemon::statusMessage() const {
   m.global_rejected = static_cast<int64_t>(health_.global_rejected.load());
   m.global_dropped_shutdown = static_cast<int64_t>(health_.global_dropped_shutdown.load());
   m.global_failures = static_cast<int64_t>(health_.global_failures.load());
+  if (recorder_) {
+    const RecorderCounts rc = recorder_->counts();
+    m.record_frames = static_cast<int64_t>(rc.frames);
+    m.record_imu_samples = static_cast<int64_t>(rc.imu_samples);
+    m.record_dropped = static_cast<int64_t>(rc.dropped);
+    m.record_write_failures = static_cast<int64_t>(rc.write_failures);
+  }
   return m;
 }
 
@@ -615,6 +661,11 @@ std::string Daemon::summary() const {
       << ", failures " << m.global_failures << ", corrections lost " << health_.global_lost
       << "; corrections applied by the estimator " << health_.global_corrections_applied
       << ", refined poses published " << health_.refined_published << "\n";
+  }
+  if (recorder_) {
+    o << "  recorder: frames " << m.record_frames << ", IMU samples " << m.record_imu_samples << ", dropped "
+      << m.record_dropped << ", write failures " << m.record_write_failures << ", files "
+      << recorder_->counts().files << "\n";
   }
   o << "  latency [ms]          count      p50      p99      max\n";
   for (int i = 0; i < static_cast<int>(Stage::kCount); ++i) {

@@ -27,6 +27,7 @@
 #include "daemon/frame_processor.hpp"
 #include "daemon/health.hpp"
 #include "daemon/notifier.hpp"
+#include "daemon/recorder.hpp"
 #include "daemon/realtime.hpp"
 #include "daemon/spsc_ring.hpp"
 #include "daemon/worker_pool.hpp"
@@ -95,6 +96,11 @@ class Daemon {
   Daemon(const Daemon&) = delete;
   Daemon& operator=(const Daemon&) = delete;
 
+  /// Records what the estimator consumes (daemon.record); before start().
+  void setRecorder(std::unique_ptr<Recorder> recorder) { recorder_ = std::move(recorder); }
+  /// Null without a recorder.
+  const Recorder* recorder() const { return recorder_.get(); }
+
   /// Opens LCM and the sources, starts every thread. False with error() if anything fails
   /// (nothing is left running then).
   bool start();
@@ -136,6 +142,10 @@ class Daemon {
   struct FrameItem {
     StereoFrame frame;
     int64_t recv_ns = 0;
+    /// Replay of a recorded log (drivers::ImuHorizonReporter): the newest IMU stamp the
+    /// recording estimator held for this frame; the estimator takes exactly up to it.
+    bool has_imu_horizon = false;
+    int64_t imu_horizon_ns = 0;
   };
   struct PoseItem {
     OdometryResult result;
@@ -151,6 +161,9 @@ class Daemon {
   void estimate(FrameItem& item);
   void prepare(StereoFrame& f);
   void collectImu(int64_t up_to_ns, bool wait);
+  void collectImuUpTo(int64_t horizon_ns);
+  void buildImuBatch(int64_t up_to_ns);
+  void takeImu(const ImuSample& s);
   void publishPose(PoseItem& p);
   void globalLoop();
   void refineJob(GlobalStage::Job& job);
@@ -176,6 +189,7 @@ class Daemon {
   std::unique_ptr<SpscRing<PoseItem>> poses_;
   std::unique_ptr<WorkerPool> pool_;
   std::shared_ptr<GlobalStage> global_;
+  std::unique_ptr<Recorder> recorder_;
 
   HealthCounters health_;
   std::atomic<bool> stop_acq_{false};      ///< camera + IMU threads
@@ -199,7 +213,9 @@ class Daemon {
   std::vector<ImuSample> imu_pending_;
   std::vector<ImuSample> imu_batch_;
   std::optional<ImuSample> imu_carry_;  ///< last sample at or before the previous frame
+  std::optional<ImuSample> imu_lookahead_;  ///< taken from the ring, past the frame's IMU horizon
   int64_t last_imu_ns_ = 0;
+  bool imu_seen_ = false;
 
   std::atomic<double> frame_rate_hz_{0}, pose_rate_hz_{0}, imu_rate_hz_{0};
 

@@ -151,8 +151,18 @@ void validateDaemonConfig(const DaemonConfig& c, const std::string& origin,
   if (c.imu.driver == "dataset" && c.camera.driver != "dataset") {
     err("imu.driver", "dataset needs camera.driver dataset (the IMU comes from that folder)");
   }
-  if (c.backpressure && (c.camera.driver != "dataset" || c.imu.driver == "serial" || c.imu.driver == "can")) {
-    err("backpressure", "only for camera.driver dataset (file replay); live sources must never wait");
+  const bool lcm_file = c.camera.driver == "lcm" && c.lcm.input_url.rfind("file://", 0) == 0;
+  if (c.backpressure && ((c.camera.driver != "dataset" && !lcm_file) || c.imu.driver == "serial" || c.imu.driver == "can")) {
+    err("backpressure", "only for file replay (camera.driver dataset, or lcm with a file:// lcm.input_url); "
+                        "live sources must never wait");
+  }
+  if (c.record.enabled()) {
+    if (c.processor != "odometry") err("record.path", "recording needs processor odometry (its calibration goes in the log)");
+    if (!(c.record.max_file_mb >= 1.0) || c.record.max_file_mb > 1e6) err("record.max_file_mb", "must be in [1, 1e6]");
+    if (c.record.max_files < 1 || c.record.max_files > 100000) err("record.max_files", "must be in [1, 100000]");
+    if (c.record.ring_frames < 1 || c.record.ring_frames > 1024) err("record.ring_frames", "must be in [1, 1024]");
+    if (c.record.ring_items < c.record.ring_frames + 1 || c.record.ring_items > (1u << 20))
+      err("record.ring_items", "must be in [ring_frames + 1, 1048576]");
   }
   if (c.imu.driver == "serial" && c.imu.device.empty()) err("imu.device", "required for serial");
   if (c.imu.baud <= 0) err("imu.baud", "must be > 0");
@@ -209,7 +219,7 @@ DaemonConfigResult parseDaemonConfig(const std::string& yaml_text, const std::st
   r.onlyKeys(d, "daemon",
              {"processor", "calibration_dataset", "camera", "imu", "lcm", "rings", "threads", "watchdog_stall_ms", "status_period_ms",
               "camera_imu_time_offset_ns", "imu_gap_ms", "frame_gap_ms", "drain_to_newest",
-              "backpressure", "imu_wait_ms", "imu_hold_ms", "global_thread", "realtime"});
+              "backpressure", "imu_wait_ms", "imu_hold_ms", "global_thread", "realtime", "record"});
   if (!d.IsMap()) return res;
 
   r.get(d, "daemon", "processor", c.processor);
@@ -307,6 +317,17 @@ DaemonConfigResult parseDaemonConfig(const std::string& yaml_text, const std::st
   r.get(rt, "daemon.realtime", "background_nice", c.realtime.background_nice);
   r.get(rt, "daemon.realtime", "lock_memory", c.realtime.lock_memory);
 
+  const YAML::Node rec = d["record"];
+  r.onlyKeys(rec, "daemon.record", {"path", "max_file_mb", "max_files", "ring_items", "ring_frames"});
+  r.get(rec, "daemon.record", "path", c.record.path);
+  r.get(rec, "daemon.record", "max_file_mb", c.record.max_file_mb);
+  r.get(rec, "daemon.record", "max_files", c.record.max_files);
+  long long ri = static_cast<long long>(c.record.ring_items), rf = static_cast<long long>(c.record.ring_frames);
+  r.get(rec, "daemon.record", "ring_items", ri);
+  r.get(rec, "daemon.record", "ring_frames", rf);
+  c.record.ring_items = static_cast<std::size_t>(std::max(0LL, ri));
+  c.record.ring_frames = static_cast<std::size_t>(std::max(0LL, rf));
+
   validateDaemonConfig(c, origin, res.errors);
   return res;
 }
@@ -376,7 +397,12 @@ std::string describe(const DaemonConfig& c) {
     << "daemon.global_thread = " << (c.global_thread ? "true" : "false") << "\n"
     << "daemon.realtime.priority = " << c.realtime.priority << "\n"
     << "daemon.realtime.background_nice = " << c.realtime.background_nice << "\n"
-    << "daemon.realtime.lock_memory = " << (c.realtime.lock_memory ? "true" : "false") << "\n";
+    << "daemon.realtime.lock_memory = " << (c.realtime.lock_memory ? "true" : "false") << "\n"
+    << "daemon.record.path = " << c.record.path << "\n"
+    << "daemon.record.max_file_mb = " << c.record.max_file_mb << "\n"
+    << "daemon.record.max_files = " << c.record.max_files << "\n"
+    << "daemon.record.ring_items = " << c.record.ring_items << "\n"
+    << "daemon.record.ring_frames = " << c.record.ring_frames << "\n";
   return o.str();
 }
 

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "daemon/realtime.hpp"
+#include "daemon/record_config.hpp"
 #include "daemon/ring_capacities.hpp"
 
 namespace seavio::daemon {
@@ -101,9 +102,10 @@ struct DaemonConfig {
   /// true: the estimator always takes the newest frame, older ones counted as dropped
   /// (live). false: every frame in order (replay); the camera ring still never blocks.
   bool drain_to_newest = true;
-  /// File replay only: the camera and IMU threads wait for room in their ring instead of
-  /// dropping, so with drain_to_newest false every frame is processed (deterministic replay).
-  /// Never for live sensors, whose acquisition must not block.
+  /// File replay only (camera.driver dataset, or lcm reading a file:// input_url): the camera
+  /// and IMU threads wait for room in their ring instead of dropping, so with drain_to_newest
+  /// false every frame is processed (deterministic replay). Never for live sensors, whose
+  /// acquisition must not block.
   bool backpressure = false;
   /// How long the estimator waits for IMU samples to reach a frame's time [ms].
   int imu_wait_ms = 20;
@@ -120,6 +122,8 @@ struct DaemonConfig {
   bool global_thread = true;
   /// Thread scheduling and memory locking of the frame path (daemon/realtime.hpp).
   RealtimeConfig realtime;
+  /// Recording of what the estimator consumes (daemon/recorder.hpp); off by default.
+  RecordConfig record;
 };
 
 struct DaemonConfigResult {

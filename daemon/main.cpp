@@ -25,6 +25,7 @@
 #include "daemon/odometry_processor.hpp"
 #include "daemon/source_factory.hpp"
 #include "drivers/config/odometry_config.hpp"
+#include "drivers/lcm/lcm_channels.hpp"
 
 namespace {
 
@@ -99,6 +100,7 @@ int main(int argc, char** argv) {
   }
 
   std::unique_ptr<seavio::daemon::FrameProcessor> processor;
+  std::unique_ptr<seavio::daemon::Recorder> recorder;
   // Global mode: the global step on its own thread unless daemon.global_thread is false.
   std::shared_ptr<seavio::daemon::GlobalStage> global;
   if (cfg.processor == "odometry" && cfg.global_thread && odo_params.mode == seavio::odometry::Mode::kGlobal) {
@@ -126,6 +128,11 @@ int main(int argc, char** argv) {
     }
     if (global) global->setRefiner(odometry->odometry().makeGlobalRefiner([] { return seavio::daemon::monotonicNowNs(); }));
     processor = std::move(odometry);
+    if (cfg.record.enabled()) {
+      recorder = std::make_unique<seavio::daemon::Recorder>(
+          cfg.record, seavio::drivers::LogCalibration{calib->calibration, calib->imu_noise, true}, cfg.lcm.stereo_channel,
+          cfg.lcm.imu_channel, std::string(seavio::drivers::lcm_channels::kCalibration));
+    }
   } else {
     processor = std::make_unique<seavio::daemon::ImuDeadReckoningProcessor>(
         src.dataset ? src.dataset->imu_noise : seavio::imu::ImuNoise{});
@@ -136,6 +143,11 @@ int main(int argc, char** argv) {
 
   seavio::daemon::Daemon daemon(cfg, std::move(src.camera), std::move(src.imu), std::move(processor),
                                 std::make_unique<seavio::daemon::SystemdNotifier>(), global);
+  if (recorder) {
+    spdlog::info("recording what the estimator consumes to {} (numbered files, {} MB each, {} kept)", cfg.record.path,
+                 cfg.record.max_file_mb, cfg.record.max_files);
+    daemon.setRecorder(std::move(recorder));
+  }
   if (!daemon.start()) {
     std::cerr << "seaviod: start failed: " << daemon.error() << "\n";
     close(sfd);

@@ -12,6 +12,7 @@ namespace seavio::drivers {
 struct DatasetLogOptions {
   std::string stereo_channel = "SEAVIO_STEREO";
   std::string imu_channel = "SEAVIO_IMU";
+  std::string calibration_channel = "SEAVIO_CALIBRATION";
   bool include_imu = true;
 };
 
@@ -22,8 +23,9 @@ struct DatasetLogStats {
   bool ok() const { return error.empty(); }
 };
 
-/// Writes every frame (stereo_t) and IMU sample (imu_t) of `ds` to `out_path` in time order;
-/// each event's log time is the sample time [us]. Stops at the first unreadable image or
+/// Writes the dataset's calibration (calibration_t, stamp order) first, then every frame
+/// (stereo_t) and IMU sample (imu_t) of `ds` to `out_path` in time order; each event's log
+/// time is the sample time [us] (the calibration's: the first sample's). Stops at the first unreadable image or
 /// write error and says which.
 DatasetLogStats writeDatasetLog(const Dataset& ds, const std::string& out_path,
                                 const DatasetLogOptions& opt = {});

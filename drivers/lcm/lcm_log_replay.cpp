@@ -6,6 +6,10 @@
 
 #include <spdlog/spdlog.h>
 
+#include "drivers/lcm/safe_decode.hpp"
+#include "seavio_lcm/calibration_t.hpp"
+#include "seavio_lcm/imu_t.hpp"
+
 namespace seavio::drivers {
 
 std::optional<LogReplayUrl> parseLogReplayUrl(const std::string& url, std::string* error) {
@@ -43,8 +47,31 @@ std::optional<LogReplayUrl> parseLogReplayUrl(const std::string& url, std::strin
 }
 
 LcmLogChannelReader::LcmLogChannelReader(LogReplayUrl url, std::string channel, std::set<std::string> known_channels)
-    : url_(std::move(url)), channel_(std::move(channel)), known_(std::move(known_channels)) {
+    : url_(std::move(url)),
+      channel_(std::move(channel)),
+      known_(std::move(known_channels)),
+      imu_horizon_ns_(ImuHorizonReporter::kNoImu) {
   known_.insert(channel_);
+}
+
+void LcmLogChannelReader::followImu(std::string imu_channel, std::string calibration_channel) {
+  imu_channel_ = std::move(imu_channel);
+  calibration_channel_ = std::move(calibration_channel);
+  known_.insert(imu_channel_);
+  known_.insert(calibration_channel_);
+}
+
+void LcmLogChannelReader::follow(const ScannedEvent& ev) {
+  // An IMU or calibration message that does not decode is the IMU reader's to report; here
+  // it only leaves the horizon or the order as it was.
+  if (ev.channel == imu_channel_) {
+    seavio_lcm::imu_t m{};
+    if (decodeLcm(m, ev.data.data(), ev.data.size())) imu_horizon_ns_ = m.t_ns;
+  } else if (ev.channel == calibration_channel_) {
+    seavio_lcm::calibration_t m{};
+    if (decodeLcm(m, ev.data.data(), ev.data.size()))
+      consumed_order_ = m.imu_order == seavio_lcm::calibration_t::IMU_ORDER_CONSUMED;
+  }
 }
 
 bool LcmLogChannelReader::open(std::string* error) {
@@ -58,13 +85,17 @@ bool LcmLogChannelReader::open(std::string* error) {
   reports_.clear();
   ended_ = false;
   log_t0_us_.reset();
+  imu_horizon_ns_ = ImuHorizonReporter::kNoImu;
+  consumed_order_ = false;
   wall0_ = std::chrono::steady_clock::now();
   return true;
 }
 
 ReadStatus LcmLogChannelReader::next(ScannedEvent& out, std::chrono::milliseconds timeout) {
   if (!scan_) return ReadStatus::kError;
-  const auto want = [this](const std::string& ch) { return ch == channel_; };
+  const auto want = [this](const std::string& ch) {
+    return ch == channel_ || (!imu_channel_.empty() && (ch == imu_channel_ || ch == calibration_channel_));
+  };
   for (;;) {
     if (!reports_.empty()) {
       last_report_ = std::move(reports_.front());
@@ -87,6 +118,8 @@ ReadStatus LcmLogChannelReader::next(ScannedEvent& out, std::chrono::millisecond
     if (!log_t0_us_) log_t0_us_ = ev->t_us;
     if (ev->channel == channel_) {
       pending_ = std::move(ev);
+    } else if (!imu_channel_.empty() && (ev->channel == imu_channel_ || ev->channel == calibration_channel_)) {
+      follow(*ev);
     } else if (!known_.count(ev->channel) && unknown_[ev->channel]++ == 0) {
       reports_.push_back(url_.path + ": byte offset " + std::to_string(ev->offset) + ", event " +
                          std::to_string(ev->index) + ": unknown channel '" + ev->channel +

@@ -16,6 +16,7 @@
 #include <string>
 
 #include "drivers/lcm/lcm_log_scanner.hpp"
+#include "drivers/source/imu_horizon.hpp"
 #include "drivers/source/sources.hpp"
 
 namespace seavio::drivers {
@@ -36,8 +37,16 @@ class LcmLogChannelReader {
   ///        on them are skipped silently); any other channel is reported as unknown
   LcmLogChannelReader(LogReplayUrl url, std::string channel, std::set<std::string> known_channels);
 
+  /// Before open(): also follow the IMU and calibration channels of the log, so that
+  /// imuHorizonNs() and consumedOrder() describe each event next() returns.
+  void followImu(std::string imu_channel, std::string calibration_channel);
   /// False with `error` set if the file cannot be opened.
   bool open(std::string* error);
+  /// followImu(): stamp of the last IMU sample before the event last returned [ns]
+  /// (ImuHorizonReporter::kNoImu if none).
+  int64_t imuHorizonNs() const { return imu_horizon_ns_; }
+  /// followImu(): the log's calibration message said IMU_ORDER_CONSUMED.
+  bool consumedOrder() const { return consumed_order_; }
   /// kOk: `out` is the next event on the channel (payload loaded). kTimeout: the next event
   /// is not due yet (pacing). kEnd: clean end of the log. kError: one damage or unknown
   /// channel report in lastReport(); call again to go on.
@@ -51,9 +60,14 @@ class LcmLogChannelReader {
   uint64_t reportsIssued() const { return reports_issued_; }
 
  private:
+  void follow(const ScannedEvent& ev);
+
   LogReplayUrl url_;
   std::string channel_;
   std::set<std::string> known_;
+  std::string imu_channel_, calibration_channel_;  ///< followImu(); empty = not followed
+  int64_t imu_horizon_ns_;
+  bool consumed_order_ = false;
   std::optional<LcmLogScanner> scan_;
   std::optional<ScannedEvent> pending_;
   std::deque<std::string> reports_;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <functional>
 #include <set>
 
 #include <spdlog/spdlog.h>
@@ -27,17 +28,18 @@ ReadStatus pump(LcmBus& bus, std::chrono::milliseconds timeout, Ready ready) {
 }
 std::set<std::string> knownRawChannels() {
   return {std::string(lcm_channels::kStereo), std::string(lcm_channels::kImu), std::string(lcm_channels::kPose),
-          std::string(lcm_channels::kStatus)};
+          std::string(lcm_channels::kStatus), std::string(lcm_channels::kCalibration)};
 }
 
 /// Opens `log` if `url` is a file:// URL that reads. False with `error` on a bad URL or an
 /// unreadable file; `log` left empty for live URLs.
 bool openLogIfFile(const std::string& url, const std::string& channel, std::optional<LcmLogChannelReader>& log,
-                   std::string& error) {
+                   std::string& error, const std::function<void(LcmLogChannelReader&)>& setup = nullptr) {
   error.clear();
   std::optional<LogReplayUrl> u = parseLogReplayUrl(url, &error);
   if (!u) return error.empty();
   log.emplace(std::move(*u), channel, knownRawChannels());
+  if (setup) setup(*log);
   if (!log->open(&error)) {
     log.reset();
     return false;
@@ -70,11 +72,19 @@ ReadStatus nextFromLog(LcmLogChannelReader& log, std::chrono::milliseconds timeo
 }
 }  // namespace
 
-LcmStereoSource::LcmStereoSource(std::string url, std::string channel, std::size_t max_queued)
-    : url_(std::move(url)), channel_(std::move(channel)), max_queued_(std::max<std::size_t>(1, max_queued)) {}
+LcmStereoSource::LcmStereoSource(std::string url, std::string channel, std::size_t max_queued,
+                                 std::string imu_channel)
+    : url_(std::move(url)),
+      channel_(std::move(channel)),
+      imu_channel_(std::move(imu_channel)),
+      max_queued_(std::max<std::size_t>(1, max_queued)) {}
 
 bool LcmStereoSource::start() {
-  if (!openLogIfFile(url_, channel_, log_, error_)) return false;
+  const std::string imu = imu_channel_;
+  if (!openLogIfFile(url_, channel_, log_, error_, [&imu](LcmLogChannelReader& r) {
+        r.followImu(imu, std::string(lcm_channels::kCalibration));
+      }))
+    return false;
   if (log_) return true;
   bus_ = std::make_unique<LcmBus>(url_);
   if (!bus_->good()) {
@@ -112,6 +122,7 @@ ReadStatus LcmStereoSource::read(StereoFrame& out, std::chrono::milliseconds tim
       return ReadStatus::kError;
     }
     out = std::move(*f);
+    horizon_ns_ = log_->imuHorizonNs();
     return ReadStatus::kOk;
   }
   if (!bus_) return ReadStatus::kError;
@@ -120,6 +131,12 @@ ReadStatus LcmStereoSource::read(StereoFrame& out, std::chrono::milliseconds tim
   out = std::move(queue_.front());
   queue_.pop_front();
   return ReadStatus::kOk;
+}
+
+bool LcmStereoSource::imuHorizon(int64_t& horizon_ns) const {
+  if (!log_ || !log_->consumedOrder()) return false;
+  horizon_ns = horizon_ns_;
+  return true;
 }
 
 void LcmStereoSource::stop() {

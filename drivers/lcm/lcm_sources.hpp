@@ -22,11 +22,15 @@
 
 namespace seavio::drivers {
 
-class LcmStereoSource : public CameraSource {
+/// From a file:// log it also follows the log's IMU channel (`imu_channel`) and calibration
+/// message: a log in consumption order (seaviod's recorder) tells the daemon, per frame,
+/// which IMU samples the recording estimator held (ImuHorizonReporter).
+class LcmStereoSource : public CameraSource, public ImuHorizonReporter {
  public:
   /// @param max_queued frames kept between LCM and read(); beyond that the oldest is
   ///        discarded and counted in dropped()
-  LcmStereoSource(std::string url, std::string channel, std::size_t max_queued = 4);
+  LcmStereoSource(std::string url, std::string channel, std::size_t max_queued = 4,
+                  std::string imu_channel = "SEAVIO_IMU");
   bool start() override;
   ReadStatus read(StereoFrame& out, std::chrono::milliseconds timeout) override;
   void stop() override;
@@ -37,12 +41,14 @@ class LcmStereoSource : public CameraSource {
   uint64_t badMessages() const { return bad_ + (bus_ ? bus_->decodeFailures() : 0); }
   /// The log reader when replaying a file:// URL (null otherwise, or before start()).
   const LcmLogChannelReader* logReader() const { return log_ ? &*log_ : nullptr; }
+  bool imuHorizon(int64_t& horizon_ns) const override;
 
  private:
-  std::string url_, channel_;
+  std::string url_, channel_, imu_channel_;
   std::size_t max_queued_;
   std::unique_ptr<LcmBus> bus_;
   std::optional<LcmLogChannelReader> log_;
+  int64_t horizon_ns_ = kNoImu;  ///< of the frame last read (file:// only)
   std::deque<StereoFrame> queue_;
   uint64_t dropped_ = 0, bad_ = 0;
   std::string error_;

@@ -5,6 +5,7 @@
 #include <opencv2/core.hpp>
 
 #include "drivers/dataset/dataset.hpp"
+#include "drivers/lcm/calibration_msg.hpp"
 #include "drivers/lcm/dataset_log.hpp"
 #include "drivers/lcm/lcm_convert.hpp"
 #include "drivers/lcm/lcm_log.hpp"
@@ -30,7 +31,7 @@ TEST(DatasetLog, RoundTripPreservesTimestampsOrderAndPixels) {
 
   drivers::LcmLogReader reader(path);
   ASSERT_TRUE(reader.good()) << reader.error();
-  std::size_t frames = 0, imu = 0;
+  std::size_t frames = 0, imu = 0, calibrations = 0;
   int64_t last_t = -1;
   while (auto ev = reader.next()) {
     if (ev->channel == "SEAVIO_STEREO") {
@@ -59,11 +60,28 @@ TEST(DatasetLog, RoundTripPreservesTimestampsOrderAndPixels) {
       EXPECT_GE(s.t_ns, last_t);
       last_t = s.t_ns;
       ++imu;
+    } else if (ev->channel == "SEAVIO_CALIBRATION") {
+      // First, and the dataset's own calibration back, bit for bit.
+      EXPECT_EQ(frames + imu, 0u);
+      auto m = reader.decode<seavio_lcm::calibration_t>(*ev);
+      ASSERT_TRUE(m);
+      std::string why;
+      const auto c = drivers::fromCalibrationMsg(*m, &why);
+      ASSERT_TRUE(c) << why;
+      EXPECT_FALSE(c->consumed_order);
+      EXPECT_EQ(c->stereo.cam0.fx, ds.calibration.cam0.fx);
+      EXPECT_EQ(c->stereo.cam1.cy, ds.calibration.cam1.cy);
+      EXPECT_EQ(c->stereo.cam1.model, ds.calibration.cam1.model);
+      EXPECT_EQ(c->stereo.cam1.distortion, ds.calibration.cam1.distortion);
+      EXPECT_TRUE(c->stereo.T_B_C1.matrix() == ds.calibration.T_B_C1.matrix());
+      EXPECT_EQ(c->imu_noise.accelerometer_random_walk, ds.imu_noise.accelerometer_random_walk);
+      ++calibrations;
     } else {
       ADD_FAILURE() << "unexpected channel " << ev->channel;
     }
   }
   EXPECT_EQ(frames, 4u);
+  EXPECT_EQ(calibrations, 1u);
   EXPECT_EQ(imu, ds.imu.size());
   EXPECT_EQ(reader.decodeFailures(), 0u);
 }
