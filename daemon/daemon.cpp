@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 #include <spdlog/spdlog.h>
 
+#include "core/common/saturating.hpp"
 #include "daemon/timestamp_monitor.hpp"
 #include "drivers/source/imu_horizon.hpp"
 #include "drivers/lcm/lcm_convert.hpp"
@@ -25,7 +26,7 @@ constexpr int32_t kLocalOnly = seavio_lcm::pose_t::FLAG_LOCAL_ONLY;
 constexpr int32_t kGlobalRefined = seavio_lcm::pose_t::FLAG_GLOBAL_REFINED;
 constexpr int32_t kMapFlags = kLocalOnly | kGlobalRefined;
 
-double msBetween(int64_t a_ns, int64_t b_ns) { return static_cast<double>(b_ns - a_ns) * 1e-6; }
+double msBetween(int64_t a_ns, int64_t b_ns) { return static_cast<double>(saturatingSub(b_ns, a_ns)) * 1e-6; }
 
 void joinIf(std::thread& t) {
   if (t.joinable()) t.join();
@@ -71,6 +72,9 @@ Daemon::Daemon(DaemonConfig config, std::unique_ptr<drivers::CameraSource> camer
       global_(std::move(global)) {
   imu_pending_.reserve(cfg_.rings.imu_samples);
   imu_batch_.reserve(cfg_.rings.imu_samples);
+  DeadlineConfig deadline = cfg_.deadline;
+  deadline.degrade = deadline.degrade && !cfg_.backpressure;
+  ladder_.emplace(deadline);
   if (global_) global_->health_ = &health_;
 }
 
@@ -136,12 +140,14 @@ bool Daemon::start() {
   global_done_ = false;
   running_ = true;
   if (recorder_) recorder_->start([this] { scheduleThisThread(ThreadRole::kBackground, "recorder"); });
-  camera_thread_ = std::thread([this] { cameraLoop(); });
-  if (imu_src_) imu_thread_ = std::thread([this] { imuLoop(); });
-  estimator_thread_ = std::thread([this] { estimatorLoop(); });
-  publisher_thread_ = std::thread([this] { publisherLoop(); });
-  status_thread_ = std::thread([this] { statusLoop(); });
-  if (global_) global_thread_ = std::thread([this] { globalLoop(); });
+  camera_thread_ = std::thread([this] { runGuarded("camera", &Daemon::cameraLoop, &Daemon::endNothing); });
+  if (imu_src_) imu_thread_ = std::thread([this] { runGuarded("IMU", &Daemon::imuLoop, &Daemon::endImu); });
+  estimator_thread_ =
+      std::thread([this] { runGuarded("estimator", &Daemon::estimatorLoop, &Daemon::endEstimator); });
+  publisher_thread_ =
+      std::thread([this] { runGuarded("publisher", &Daemon::publisherLoop, &Daemon::endPublisher); });
+  status_thread_ = std::thread([this] { runGuarded("status", &Daemon::statusLoop, &Daemon::endNothing); });
+  if (global_) global_thread_ = std::thread([this] { runGuarded("ICP", &Daemon::globalLoop, &Daemon::endGlobal); });
   return true;
 }
 
@@ -188,6 +194,57 @@ uint64_t Daemon::accountedFrames() const {
          health_.processing_failures;
 }
 
+void Daemon::recordStage(Stage stage, double ms) {
+  health_.at(stage).record(ms);
+  if (ms > cfg_.deadline.frame_budget_ms) health_.deadline_misses[static_cast<int>(stage)]++;
+}
+
+void Daemon::updateLadder(double frame_ms) {
+  if (!ladder_->add(frame_ms)) return;
+  const int rung = ladder_->rung();
+  const bool climbed = rung > health_.degrade_rung;
+  health_.recent_p90_ms = ladder_->changeP90Ms();
+  processor_->setLoadShedding(ladder_->shedding());
+  health_.degrade_rung = rung;
+  if (climbed) {
+    health_.degrade_climbs++;
+    spdlog::warn("deadline: recent p90 over the {} ms budget: degrade rung {} ({})", cfg_.deadline.frame_budget_ms, rung,
+                 DegradeLadder::rungName(rung));
+  } else {
+    spdlog::info("deadline: load fell: degrade rung {} ({})", rung, DegradeLadder::rungName(rung));
+  }
+}
+
+void Daemon::runGuarded(const char* thread, void (Daemon::*body)(), void (Daemon::*on_fault)()) {
+  std::string why;
+  try {
+    (this->*body)();
+    return;
+  } catch (const std::exception& e) {
+    why = std::string(thread) + " thread: uncaught exception: " + e.what();
+  } catch (...) {
+    why = std::string(thread) + " thread: uncaught exception of a type not derived from std::exception";
+  }
+  raiseFault(kExitThreadFault, why);
+  (this->*on_fault)();
+}
+
+void Daemon::raiseFault(int code, const std::string& why) {
+  {
+    const std::lock_guard<std::mutex> lock(fault_mutex_);
+    if (fault_code_.load() != 0) return;  // the first fault is the one that explains the exit
+    fault_ = why;
+    fault_code_ = code;
+  }
+  spdlog::critical("seaviod must exit (status {}): {}", code, why);
+  notifier_->notify("STATUS=fault: " + why);
+}
+
+std::string Daemon::fault() const {
+  const std::lock_guard<std::mutex> lock(fault_mutex_);
+  return fault_;
+}
+
 void Daemon::scheduleThisThread(ThreadRole role, const std::string& name) {
   noteScheduling(applyThreadRole(role, cfg_.realtime, name));
 }
@@ -214,7 +271,7 @@ bool Daemon::schedulingOk() const {
 }
 
 void Daemon::cameraLoop() {
-  scheduleThisThread(ThreadRole::kFramePath, "camera");
+  scheduleThisThread(ThreadRole::kCameraReader, "camera");
   const auto* horizon = dynamic_cast<const drivers::ImuHorizonReporter*>(camera_.get());
   TimestampMonitor stamps(static_cast<int64_t>(cfg_.frame_gap_ms) * 1'000'000);
   bool have_seq = false;
@@ -235,7 +292,7 @@ void Daemon::cameraLoop() {
     if (have_seq && item.frame.seq > last_seq + 1) health_.frames_missing_upstream += item.frame.seq - last_seq - 1;
     have_seq = true;
     last_seq = item.frame.seq;
-    item.frame.t_ns += cfg_.camera_imu_time_offset_ns;
+    item.frame.t_ns = saturatingAdd(item.frame.t_ns, cfg_.camera_imu_time_offset_ns);
     const StampCheck c = stamps.check(item.frame.t_ns);
     if (c == StampCheck::kDuplicate) health_.duplicates++;
     if (c == StampCheck::kOutOfOrder) health_.out_of_order++;
@@ -257,7 +314,7 @@ void Daemon::cameraLoop() {
 }
 
 void Daemon::imuLoop() {
-  scheduleThisThread(ThreadRole::kFramePath, "imu");
+  scheduleThisThread(ThreadRole::kImuReader, "imu");
   TimestampMonitor stamps(static_cast<int64_t>(cfg_.imu_gap_ms) * 1'000'000);
   while (!stop_acq_) {
     ImuSample s;
@@ -276,6 +333,7 @@ void Daemon::imuLoop() {
     if (!accepted(c)) continue;
     if (!s.gyro_rad_s.allFinite() || !s.accel_m_s2.allFinite()) continue;
     health_.imu_samples++;
+    health_.last_imu_recv_ns = monotonicNowNs();
     // Same slot-count wait as for frames (see cameraLoop).
     bool pushed = false;
     while (cfg_.backpressure && !stop_acq_ && !pushed) pushed = imu_->pushWaitFor(std::move(s), kPoll);
@@ -285,9 +343,8 @@ void Daemon::imuLoop() {
 }
 
 void Daemon::takeImu(const ImuSample& s) {
-  last_imu_ns_ = s.t_ns;
+  pendImu(s);
   imu_seen_ = true;
-  imu_pending_.push_back(s);
   if (recorder_) recorder_->imu(s);
 }
 
@@ -320,9 +377,9 @@ void Daemon::collectImu(int64_t up_to_ns, bool wait) {
   ImuSample s;
   for (;;) {
     while (imu_->tryPop(s)) takeImu(s);
-    if (!wait || last_imu_ns_ > up_to_ns || stop_pipeline_ || imu_ended_) break;
+    if (!wait || last_imu_ns_ > up_to_ns || stop_pipeline_ || imu_ended_ || health_.imu_dead) break;
     // Close enough: the odometry holds the newest sample's rates over the remaining gap.
-    if (hold_ns > 0 && last_imu_ns_ > 0 && last_imu_ns_ >= up_to_ns - hold_ns) break;
+    if (hold_ns > 0 && last_imu_ns_ > 0 && last_imu_ns_ >= saturatingSub(up_to_ns, hold_ns)) break;
     const int64_t now = monotonicNowNs();
     if (now >= deadline) break;
     if (imu_->popWaitFor(s, std::chrono::nanoseconds(std::min<int64_t>(deadline - now, 5'000'000)))) takeImu(s);
@@ -353,6 +410,27 @@ void Daemon::buildImuBatch(int64_t up_to_ns) {
   imu_pending_.resize(keep);
 }
 
+void Daemon::pendImu(const ImuSample& s) {
+  // The IMU thread passes a stamp earlier than the last one only when its stream restarted on
+  // an earlier clock (TimestampMonitor kRestart): what is pending from before lies ahead of
+  // every frame to come and would be handed to each of them as "the first sample after".
+  while (!imu_pending_.empty() && imu_pending_.back().t_ns >= s.t_ns) {
+    imu_pending_.pop_back();
+    health_.imu_pending_dropped++;
+  }
+  // Full: the samples run ahead of every frame (another time base, or frames stopped). The
+  // oldest half goes in one move, so the cap costs no per-sample shifting; the buffer never
+  // grows past the capacity reserved at construction.
+  const std::size_t cap = std::max<std::size_t>(cfg_.rings.imu_samples, 2);
+  if (imu_pending_.size() >= cap) {
+    const std::size_t drop = cap / 2;
+    imu_pending_.erase(imu_pending_.begin(), imu_pending_.begin() + static_cast<std::ptrdiff_t>(drop));
+    health_.imu_pending_dropped += drop;
+  }
+  imu_pending_.push_back(s);
+  last_imu_ns_ = s.t_ns;
+}
+
 void Daemon::prepare(StereoFrame& f) {
   // Drivers may deliver colour or padded images; left and right are converted in
   // parallel on the persistent pool (no thread per frame).
@@ -380,14 +458,14 @@ void Daemon::prepare(StereoFrame& f) {
 
 void Daemon::estimate(FrameItem& item) {
   const int64_t t0 = monotonicNowNs();
-  health_.at(Stage::kQueue).record(msBetween(item.recv_ns, t0));
+  recordStage(Stage::kQueue, msBetween(item.recv_ns, t0));
   if (item.has_imu_horizon) {
     if (item.imu_horizon_ns != drivers::ImuHorizonReporter::kNoImu) collectImuUpTo(item.imu_horizon_ns);
     buildImuBatch(item.frame.t_ns);
   } else {
     collectImu(item.frame.t_ns, true);
   }
-  health_.at(Stage::kImuWait).record(msBetween(t0, monotonicNowNs()));
+  recordStage(Stage::kImuWait, msBetween(t0, monotonicNowNs()));
   OdometryResult r;
   try {
     prepare(item.frame);
@@ -403,14 +481,15 @@ void Daemon::estimate(FrameItem& item) {
     return;
   }
   const int64_t t1 = monotonicNowNs();
-  health_.at(Stage::kProcess).record(msBetween(t0, t1));
+  recordStage(Stage::kProcess, msBetween(t0, t1));
+  updateLadder(msBetween(item.recv_ns, t1));
   if (r.times.total_ms > 0) {
-    health_.at(Stage::kRectify).record(r.times.rectify_ms);
-    health_.at(Stage::kFeatures).record(r.times.features_ms);
-    health_.at(Stage::kStereo).record(r.times.stereo_ms);
-    health_.at(Stage::kTemporal).record(r.times.temporal_ms);
-    health_.at(Stage::kTensor).record(r.times.tensor_ms);
-    health_.at(Stage::kIcp).record(r.times.icp_ms);
+    recordStage(Stage::kRectify, r.times.rectify_ms);
+    recordStage(Stage::kFeatures, r.times.features_ms);
+    recordStage(Stage::kStereo, r.times.stereo_ms);
+    recordStage(Stage::kTemporal, r.times.temporal_ms);
+    recordStage(Stage::kTensor, r.times.tensor_ms);
+    recordStage(Stage::kIcp, r.times.icp_ms);
   }
   health_.features_left = r.quality.features_left;
   health_.features_right = r.quality.features_right;
@@ -454,19 +533,19 @@ void Daemon::publishPose(PoseItem& p) {
   }
   health_.poses_published++;
   health_.last_pose_pub_ns = now;
-  health_.at(Stage::kPublish).record(msBetween(p.proc_end_ns, now));
-  health_.at(Stage::kEndToEnd).record(msBetween(p.recv_ns, now));
+  recordStage(Stage::kPublish, msBetween(p.proc_end_ns, now));
+  recordStage(Stage::kEndToEnd, msBetween(p.recv_ns, now));
   // Only meaningful when the source stamps on our monotonic clock (live drivers); replayed
   // datasets carry their own epoch and are left out.
-  const int64_t age = now - p.result.t_ns;
+  const int64_t age = saturatingSub(now, p.result.t_ns);
   if (age >= 0 && age < 10'000'000'000LL) {
-    health_.at(Stage::kCaptureToPublish).record(static_cast<double>(age) * 1e-6);
+    recordStage(Stage::kCaptureToPublish, static_cast<double>(age) * 1e-6);
   }
   if (!ready_sent_.exchange(true)) notifier_->notify("READY=1\nSTATUS=first pose published");
 }
 
 void Daemon::publisherLoop() {
-  scheduleThisThread(ThreadRole::kFramePath, "publisher");
+  scheduleThisThread(ThreadRole::kPublisher, "publisher");
   for (;;) {
     const bool est_done = estimator_done_;
     PoseItem p;
@@ -505,7 +584,7 @@ void Daemon::globalLoop() {
 
 void Daemon::refineJob(GlobalStage::Job& job) {
   const int64_t t0 = monotonicNowNs();
-  health_.at(Stage::kGlobalQueue).record(msBetween(job.submit_ns, t0));
+  recordStage(Stage::kGlobalQueue, msBetween(job.submit_ns, t0));
   odometry::GlobalCorrection c;
   try {
     c = global_->refine(job.request);
@@ -514,7 +593,7 @@ void Daemon::refineJob(GlobalStage::Job& job) {
     return;
   }
   const int64_t t1 = monotonicNowNs();
-  health_.at(Stage::kGlobal).record(msBetween(t0, t1));
+  recordStage(Stage::kGlobal, msBetween(t0, t1));
   health_.global_refined++;
   if (c.changed()) {
     health_.global_applied++;
@@ -551,10 +630,10 @@ void Daemon::publishRefined(const OdometryResult& r, int64_t recv_ns, int64_t pr
     return;
   }
   health_.refined_published++;
-  health_.at(Stage::kRefinedEndToEnd).record(msBetween(recv_ns, now));
-  const int64_t age = now - r.t_ns;
+  recordStage(Stage::kRefinedEndToEnd, msBetween(recv_ns, now));
+  const int64_t age = saturatingSub(now, r.t_ns);
   if (age >= 0 && age < 10'000'000'000LL) {
-    health_.at(Stage::kRefinedCaptureToPublish).record(static_cast<double>(age) * 1e-6);
+    recordStage(Stage::kRefinedCaptureToPublish, static_cast<double>(age) * 1e-6);
   }
 }
 
@@ -616,6 +695,19 @@ seavio_lcm::status_t Daemon::statusMessage() const {
     m.record_dropped = static_cast<int64_t>(rc.dropped);
     m.record_write_failures = static_cast<int64_t>(rc.write_failures);
   }
+  m.imu_pending_dropped = static_cast<int64_t>(health_.imu_pending_dropped.load());
+  m.imu_dead = health_.imu_dead;
+  m.imu_dead_episodes = static_cast<int64_t>(health_.imu_dead_episodes.load());
+  m.fault_exit_code = static_cast<int16_t>(fault_code_.load());
+  m.fault = fault();
+  m.frame_budget_ms = cfg_.deadline.frame_budget_ms;
+  for (int i = 0; i < static_cast<int>(Stage::kCount); ++i) {
+    m.deadline_misses.push_back(static_cast<int64_t>(health_.deadline_misses[i].load()));
+  }
+  m.recent_p90_ms = health_.recent_p90_ms;
+  m.degrade_rung = static_cast<int16_t>(health_.degrade_rung.load());
+  m.degrade = std::string(DegradeLadder::rungName(m.degrade_rung));
+  m.degrade_climbs = static_cast<int64_t>(health_.degrade_climbs.load());
   return m;
 }
 
@@ -653,7 +745,9 @@ std::string Daemon::summary() const {
     << ", lost " << m.camera_lost_frames << ", corrupt " << m.camera_corrupt_frames << "; IMU checksum "
     << m.imu_checksum_errors << ", garbage bytes " << m.imu_garbage_bytes << ", partial " << m.imu_partial_packets
     << ", reconnects " << m.imu_reconnects << ", bus errors " << m.imu_bus_errors << "; timestamp jumps "
-    << m.timestamp_jumps << "\n";
+    << m.timestamp_jumps << "\n"
+    << "  IMU pending dropped " << m.imu_pending_dropped << ", dead " << (m.imu_dead ? "yes" : "no") << " ("
+    << m.imu_dead_episodes << " episodes)" << (m.fault.empty() ? "" : "; FAULT (exit " + std::to_string(m.fault_exit_code) + "): " + m.fault) << "\n";
   if (global_) {
     o << "  global step (ICP thread): requests " << m.global_requests << ", skipped (ring full) "
       << m.global_skipped << ", refined " << m.global_refined << " (moved " << m.global_applied
@@ -667,21 +761,48 @@ std::string Daemon::summary() const {
       << m.record_dropped << ", write failures " << m.record_write_failures << ", files "
       << recorder_->counts().files << "\n";
   }
-  o << "  latency [ms]          count      p50      p99      max\n";
+  o << "  deadline " << m.frame_budget_ms << " ms: degrade rung " << m.degrade_rung << " (" << m.degrade << "), climbs "
+    << m.degrade_climbs << "\n";
+  o << "  latency [ms]          count      p50      p99      max   misses\n";
   for (int i = 0; i < static_cast<int>(Stage::kCount); ++i) {
     const LatencyHistogram& h = health_.latency[i];
     if (h.count() == 0) continue;
     char line[160];
-    std::snprintf(line, sizeof line, "  %-20s %7llu %8.2f %8.2f %8.2f\n",
+    std::snprintf(line, sizeof line, "  %-20s %7llu %8.2f %8.2f %8.2f %8llu\n",
                   std::string(kStageNames[i]).c_str(), static_cast<unsigned long long>(h.count()),
-                  h.percentileMs(0.5), h.percentileMs(0.99), h.maxMs());
+                  h.percentileMs(0.5), h.percentileMs(0.99), h.maxMs(),
+                  static_cast<unsigned long long>(health_.deadline_misses[i].load()));
     o << line;
   }
   return o.str();
 }
 
+void Daemon::checkImuAlive(int64_t now_ns) {
+  // A source that ended (a replayed file) is not dead, nor is a gap in a file replayed with
+  // backpressure (waiting for its samples keeps the replay deterministic); a live one that
+  // went quiet is.
+  if (!imu_src_ || imu_ended_ || cfg_.backpressure) return;
+  const int64_t last = health_.last_imu_recv_ns;
+  const int64_t since = saturatingSub(now_ns, last > 0 ? last : start_ns_.load());
+  const bool dead = since > static_cast<int64_t>(cfg_.imu.dead_after_ms) * 1'000'000;
+  if (dead == health_.imu_dead) return;
+  health_.imu_dead = dead;
+  if (!dead) {
+    spdlog::info("IMU {}: samples again, imu_dead cleared", imu_src_->name());
+    return;
+  }
+  health_.imu_dead_episodes++;
+  const std::string why = "IMU " + imu_src_->name() + ": no sample for " + std::to_string(since / 1'000'000) +
+                          " ms (daemon.imu.dead_after_ms " + std::to_string(cfg_.imu.dead_after_ms) + ")";
+  if (cfg_.imu.dead_policy == "exit") {
+    raiseFault(kExitImuDead, why + ", dead_policy exit");
+  } else {
+    spdlog::error("{}; dead_policy flag: carrying on vision-only", why);
+  }
+}
+
 void Daemon::statusLoop() {
-  scheduleThisThread(ThreadRole::kBackground, "status");
+  scheduleThisThread(ThreadRole::kStatus, "status");
   const auto wd = notifier_->watchdogPeriod();
   const int64_t wd_every_ns = wd.count() > 0 ? wd.count() * 1000 / 2 : 0;
   const int64_t status_every_ns = static_cast<int64_t>(cfg_.status_period_ms) * 1'000'000;
@@ -693,11 +814,14 @@ void Daemon::statusLoop() {
   while (!stop_pipeline_ && !finished_) {
     std::this_thread::sleep_for(kPoll);
     const int64_t now = monotonicNowNs();
+    checkImuAlive(now);
     if (wd_every_ns > 0 && now >= next_wd) {
       next_wd = now + wd_every_ns;
-      // Fed only while frames arrive and poses leave: a stalled pipeline gets restarted.
+      // Fed only while frames arrive and poses leave and nothing fatal happened: a stalled
+      // pipeline, a dead thread or a dead IMU under dead_policy exit gets restarted even if
+      // the main thread never gets to exit.
       const int64_t lf = health_.last_frame_recv_ns, lp = health_.last_pose_pub_ns;
-      if (lf > 0 && lp > 0 && now - lf < stall_ns && now - lp < stall_ns) {
+      if (fault_code_ == 0 && lf > 0 && lp > 0 && now - lf < stall_ns && now - lp < stall_ns) {
         notifier_->notify("WATCHDOG=1");
       }
     }

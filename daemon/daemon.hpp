@@ -24,6 +24,7 @@
 
 #include "core/odometry/odometry.hpp"
 #include "daemon/daemon_config.hpp"
+#include "daemon/exit_codes.hpp"
 #include "daemon/frame_processor.hpp"
 #include "daemon/health.hpp"
 #include "daemon/notifier.hpp"
@@ -114,6 +115,11 @@ class Daemon {
   bool finished() const { return finished_.load(); }
   bool running() const { return running_.load(); }
   const std::string& error() const { return error_; }
+  /// Non-zero once the daemon must exit (daemon/exit_codes.hpp): a thread or an LCM callback
+  /// threw past every stage (kExitThreadFault), or the IMU died under dead_policy exit
+  /// (kExitImuDead). The watchdog is no longer fed from then on; fault() says why.
+  int faultExitCode() const { return fault_code_.load(); }
+  std::string fault() const;
 
   const HealthCounters& health() const { return health_; }
   uint64_t framesDroppedInRing() const { return frames_ ? frames_->dropped() : 0; }
@@ -169,6 +175,25 @@ class Daemon {
   void refineJob(GlobalStage::Job& job);
   void publishRefined(const OdometryResult& r, int64_t recv_ns, int64_t proc_end_ns);
   void maybeFinish();
+  /// Runs a thread's body; an exception escaping it raises kExitThreadFault naming `thread`,
+  /// then `on_fault` lets the threads downstream of it end as if it had.
+  void runGuarded(const char* thread, void (Daemon::*body)(), void (Daemon::*on_fault)());
+  void raiseFault(int code, const std::string& why);
+  void endEstimator() { estimator_done_ = true; }
+  void endPublisher() { publisher_done_ = true; }
+  void endImu() { imu_ended_ = true; }
+  void endGlobal() { global_done_ = true; }
+  void endNothing() {}
+  /// Estimator thread: appends one IMU sample to the pending buffer, bounded (see
+  /// HealthCounters::imu_pending_dropped).
+  void pendImu(const ImuSample& s);
+  /// Status thread: raises or clears imu_dead; under dead_policy exit a dead IMU is fatal.
+  void checkImuAlive(int64_t now_ns);
+  /// Records a stage's latency and counts a deadline miss if it exceeds the frame budget.
+  void recordStage(Stage stage, double ms);
+  /// Estimator thread: feeds one frame's latency (arrival to estimate) to the degrade ladder
+  /// and hands the processor what to shed when the rung changes.
+  void updateLadder(double frame_ms);
   /// Applies `role` to the calling thread and records the outcome.
   void scheduleThisThread(ThreadRole role, const std::string& name);
   void noteScheduling(const SchedulingOutcome& outcome);
@@ -205,6 +230,9 @@ class Daemon {
   std::atomic<bool> ready_sent_{false};
   std::atomic<int64_t> start_ns_{0};
   std::string error_;
+  std::atomic<int> fault_code_{0};
+  mutable std::mutex fault_mutex_;
+  std::string fault_;  ///< why fault_code_ was raised (fault_mutex_)
   mutable std::mutex sched_mutex_;
   std::vector<std::string> sched_report_;
   bool sched_ok_ = true;
@@ -214,6 +242,7 @@ class Daemon {
   std::vector<ImuSample> imu_batch_;
   std::optional<ImuSample> imu_carry_;  ///< last sample at or before the previous frame
   std::optional<ImuSample> imu_lookahead_;  ///< taken from the ring, past the frame's IMU horizon
+  std::optional<DegradeLadder> ladder_;
   int64_t last_imu_ns_ = 0;
   bool imu_seen_ = false;
 

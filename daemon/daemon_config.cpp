@@ -58,6 +58,15 @@ class Reader {
   std::vector<std::string>& errors_;
 };
 
+std::string cpuList(const std::vector<int>& cpus) {
+  std::string s;
+  for (int c : cpus) {
+    if (!s.empty()) s += ',';
+    s += std::to_string(c);
+  }
+  return s.empty() ? "any" : s;
+}
+
 }  // namespace
 
 std::string cameraDriversBuilt() {
@@ -164,6 +173,10 @@ void validateDaemonConfig(const DaemonConfig& c, const std::string& origin,
     if (c.record.ring_items < c.record.ring_frames + 1 || c.record.ring_items > (1u << 20))
       err("record.ring_items", "must be in [ring_frames + 1, 1048576]");
   }
+  if (c.imu.dead_policy != "flag" && c.imu.dead_policy != "exit")
+    err("imu.dead_policy", "'" + c.imu.dead_policy + "' is not one of flag, exit");
+  if (c.imu.dead_after_ms < 100 || c.imu.dead_after_ms > 600000)
+    err("imu.dead_after_ms", std::to_string(c.imu.dead_after_ms) + " outside [100, 600000]");
   if (c.imu.driver == "serial" && c.imu.device.empty()) err("imu.device", "required for serial");
   if (c.imu.baud <= 0) err("imu.baud", "must be > 0");
   if (c.lcm.url.empty()) err("lcm.url", "must not be empty");
@@ -195,6 +208,12 @@ void validateDaemonConfig(const DaemonConfig& c, const std::string& origin,
   // 99 is left to the kernel's own real-time threads (watchdog, migration).
   range("realtime.priority", c.realtime.priority, 0, 98);
   range("realtime.background_nice", c.realtime.background_nice, 0, 19);
+  range("deadline.frame_budget_ms", c.deadline.frame_budget_ms, 1, 10000);
+  range("deadline.window_frames", c.deadline.window_frames, 5, 1000);
+  if (!(c.deadline.release_fraction > 0.0) || !(c.deadline.release_fraction < 1.0))
+    err("deadline.release_fraction", "must be in (0, 1)");
+  if (!(c.deadline.feature_fraction > 0.0) || !(c.deadline.feature_fraction < 1.0))
+    err("deadline.feature_fraction", "must be in (0, 1)");
   if (c.camera_imu_time_offset_ns < -1'000'000'000LL || c.camera_imu_time_offset_ns > 1'000'000'000LL) {
     err("camera_imu_time_offset_ns", "must be within +-1 s");
   }
@@ -219,7 +238,8 @@ DaemonConfigResult parseDaemonConfig(const std::string& yaml_text, const std::st
   r.onlyKeys(d, "daemon",
              {"processor", "calibration_dataset", "camera", "imu", "lcm", "rings", "threads", "watchdog_stall_ms", "status_period_ms",
               "camera_imu_time_offset_ns", "imu_gap_ms", "frame_gap_ms", "drain_to_newest",
-              "backpressure", "imu_wait_ms", "imu_hold_ms", "global_thread", "realtime", "record"});
+              "backpressure", "imu_wait_ms", "imu_hold_ms", "global_thread", "realtime", "record",
+              "deadline"});
   if (!d.IsMap()) return res;
 
   r.get(d, "daemon", "processor", c.processor);
@@ -262,7 +282,9 @@ DaemonConfigResult parseDaemonConfig(const std::string& yaml_text, const std::st
   }
 
   const YAML::Node imu = d["imu"];
-  r.onlyKeys(imu, "daemon.imu", {"driver", "device", "baud", "rate_divisor", "interface", "can_profile", "candump_log"});
+  r.onlyKeys(imu, "daemon.imu",
+             {"driver", "device", "baud", "rate_divisor", "interface", "can_profile", "candump_log", "dead_after_ms",
+              "dead_policy"});
   r.get(imu, "daemon.imu", "driver", c.imu.driver);
   r.get(imu, "daemon.imu", "device", c.imu.device);
   r.get(imu, "daemon.imu", "baud", c.imu.baud);
@@ -270,6 +292,8 @@ DaemonConfigResult parseDaemonConfig(const std::string& yaml_text, const std::st
   r.get(imu, "daemon.imu", "interface", c.imu.interface);
   r.get(imu, "daemon.imu", "can_profile", c.imu.can_profile);
   r.get(imu, "daemon.imu", "candump_log", c.imu.candump_log);
+  r.get(imu, "daemon.imu", "dead_after_ms", c.imu.dead_after_ms);
+  r.get(imu, "daemon.imu", "dead_policy", c.imu.dead_policy);
 
   const YAML::Node lcm = d["lcm"];
   r.onlyKeys(lcm, "daemon.lcm", {"url", "input_url", "pose_channel", "status_channel", "stereo_channel", "imu_channel"});
@@ -312,10 +336,26 @@ DaemonConfigResult parseDaemonConfig(const std::string& yaml_text, const std::st
   r.get(d, "daemon", "global_thread", c.global_thread);
 
   const YAML::Node rt = d["realtime"];
-  r.onlyKeys(rt, "daemon.realtime", {"priority", "background_nice", "lock_memory"});
+  r.onlyKeys(rt, "daemon.realtime", {"priority", "background_nice", "lock_memory", "frame_cpus", "background_cpus"});
   r.get(rt, "daemon.realtime", "priority", c.realtime.priority);
   r.get(rt, "daemon.realtime", "background_nice", c.realtime.background_nice);
   r.get(rt, "daemon.realtime", "lock_memory", c.realtime.lock_memory);
+  for (auto [key, cpus] : {std::pair{"frame_cpus", &c.realtime.frame_cpus},
+                           std::pair{"background_cpus", &c.realtime.background_cpus}}) {
+    std::string text;
+    r.get(rt, "daemon.realtime", key, text);
+    std::string why;
+    if (!text.empty() && !parseCpuList(text, *cpus, why)) r.error(std::string("daemon.realtime.") + key, why);
+  }
+
+  const YAML::Node dl = d["deadline"];
+  r.onlyKeys(dl, "daemon.deadline",
+             {"frame_budget_ms", "window_frames", "release_fraction", "feature_fraction", "degrade"});
+  r.get(dl, "daemon.deadline", "frame_budget_ms", c.deadline.frame_budget_ms);
+  r.get(dl, "daemon.deadline", "window_frames", c.deadline.window_frames);
+  r.get(dl, "daemon.deadline", "release_fraction", c.deadline.release_fraction);
+  r.get(dl, "daemon.deadline", "feature_fraction", c.deadline.feature_fraction);
+  r.get(dl, "daemon.deadline", "degrade", c.deadline.degrade);
 
   const YAML::Node rec = d["record"];
   r.onlyKeys(rec, "daemon.record", {"path", "max_file_mb", "max_files", "ring_items", "ring_frames"});
@@ -374,6 +414,8 @@ std::string describe(const DaemonConfig& c) {
     << "daemon.imu.interface = " << c.imu.interface << "\n"
     << "daemon.imu.can_profile = " << c.imu.can_profile << "\n"
     << "daemon.imu.candump_log = " << c.imu.candump_log << "\n"
+    << "daemon.imu.dead_after_ms = " << c.imu.dead_after_ms << "\n"
+    << "daemon.imu.dead_policy = " << c.imu.dead_policy << "\n"
     << "daemon.lcm.url = " << c.lcm.url << "\n"
     << "daemon.lcm.input_url = " << c.lcm.input_url << "\n"
     << "daemon.lcm.pose_channel = " << c.lcm.pose_channel << "\n"
@@ -402,7 +444,14 @@ std::string describe(const DaemonConfig& c) {
     << "daemon.record.max_file_mb = " << c.record.max_file_mb << "\n"
     << "daemon.record.max_files = " << c.record.max_files << "\n"
     << "daemon.record.ring_items = " << c.record.ring_items << "\n"
-    << "daemon.record.ring_frames = " << c.record.ring_frames << "\n";
+    << "daemon.record.ring_frames = " << c.record.ring_frames << "\n"
+    << "daemon.realtime.frame_cpus = " << cpuList(c.realtime.frame_cpus) << "\n"
+    << "daemon.realtime.background_cpus = " << cpuList(c.realtime.background_cpus) << "\n"
+    << "daemon.deadline.frame_budget_ms = " << c.deadline.frame_budget_ms << "\n"
+    << "daemon.deadline.window_frames = " << c.deadline.window_frames << "\n"
+    << "daemon.deadline.release_fraction = " << c.deadline.release_fraction << "\n"
+    << "daemon.deadline.feature_fraction = " << c.deadline.feature_fraction << "\n"
+    << "daemon.deadline.degrade = " << (c.deadline.degrade ? "true" : "false") << "\n";
   return o.str();
 }
 

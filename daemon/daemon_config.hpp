@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "daemon/degrade_ladder.hpp"
 #include "daemon/realtime.hpp"
 #include "daemon/record_config.hpp"
 #include "daemon/ring_capacities.hpp"
@@ -66,6 +67,12 @@ struct ImuConfig {
   std::string interface = "can0";  ///< driver "can": SocketCAN interface
   std::string can_profile;         ///< driver "can": profile YAML (config/can_profiles/)
   std::string candump_log;         ///< driver "can": replay this candump file instead of a bus
+  /// A live IMU silent this long is dead [ms]: flagged in the status (imu_dead) and, with
+  /// `dead_policy` exit, the daemon exits (kExitImuDead) so systemd restarts it.
+  int dead_after_ms = 1000;
+  /// "flag": report and carry on vision-only (the pose stays continuous; the drivers keep
+  /// reconnecting); "exit": stop feeding the watchdog and exit for a restart.
+  std::string dead_policy = "flag";
 };
 
 struct LcmConfig {
@@ -124,6 +131,10 @@ struct DaemonConfig {
   RealtimeConfig realtime;
   /// Recording of what the estimator consumes (daemon/recorder.hpp); off by default.
   RecordConfig record;
+  /// The per-frame budget, its misses and the degrade ladder (daemon/degrade_ladder.hpp).
+  /// Never degrades with `backpressure` (file replay: no deadline, and the poses must not
+  /// depend on the host's load).
+  DeadlineConfig deadline;
 };
 
 struct DaemonConfigResult {

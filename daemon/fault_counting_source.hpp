@@ -30,6 +30,7 @@ inline DriverFaults foldFaults(const drivers::CanImuFaults& f) {
   d.imu_bus_errors =
       f.can_error_frames + f.bus_off + f.unknown_ids + f.short_frames + f.incomplete_samples + f.malformed_log_lines;
   d.imu_partial_packets = f.partial_packets;
+  d.imu_reconnects = f.reconnects;
   d.timestamp_jumps = f.timestamp_jumps;
   return d;
 }
@@ -46,6 +47,7 @@ inline DriverFaults foldFaults(const drivers::SerialImuFaults& f) {
 
 inline DriverFaults foldFaults(const drivers::V4l2Faults& f) {
   DriverFaults d;
+  d.camera_reconnects = f.reconnects;
   d.camera_lost_frames = f.frames_dropped;
   d.camera_corrupt_frames = f.corrupt_frames;
   d.timestamp_jumps = f.timestamp_jumps;
@@ -68,6 +70,7 @@ inline DriverFaults foldFaults(const drivers::AravisFaults& f) {
 #ifdef SEAVIO_HAVE_LIBCAMERA
 inline DriverFaults foldFaults(const drivers::LibcameraFaults& f) {
   DriverFaults d;
+  d.camera_reconnects = f.reconnects;
   d.camera_lost_frames = f.frames_dropped;
   d.camera_corrupt_frames = f.corrupt_frames;
   return d;

@@ -9,6 +9,7 @@
 
 #include "core/common/types.hpp"
 #include "core/imu/imu_noise.hpp"
+#include "core/odometry/load_shedding.hpp"
 
 namespace seavio::daemon {
 
@@ -22,6 +23,9 @@ class FrameProcessor {
   ///        on the camera clock
   virtual OdometryResult process(const StereoFrame& frame, std::span<const ImuSample> imu) = 0;
   virtual std::string name() const = 0;
+  /// What to leave out from the next frame on (the daemon's degrade ladder); processors
+  /// with nothing to shed ignore it.
+  virtual void setLoadShedding(const odometry::LoadShedding& shed) { (void)shed; }
   /// Runs `fn` once on each thread the processor owns (none by default), so the daemon can
   /// give its workers the frame path's scheduling. False if that failed.
   virtual bool runOnWorkerThreads(const std::function<void()>& fn) {

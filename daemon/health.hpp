@@ -55,6 +55,13 @@ struct HealthCounters {
   /// (OdometryResult::coasting; countImuOnly). Not on LCM: status_t keeps its version.
   std::atomic<uint64_t> imu_only_leak_corrected{0};
   std::atomic<uint64_t> imu_only_covariance_only{0};
+  /// IMU samples the estimator dropped from its pending buffer: the buffer was full (samples
+  /// on another time base, ahead of every frame), or the stream restarted on an earlier
+  /// clock and left them ahead of every frame to come.
+  std::atomic<uint64_t> imu_pending_dropped{0};
+  std::atomic<bool> imu_dead{false};            ///< no IMU sample for daemon.imu.dead_after_ms
+  std::atomic<uint64_t> imu_dead_episodes{0};   ///< times imu_dead was raised
+  std::atomic<int64_t> last_imu_recv_ns{0};     ///< daemon clock [ns], 0 = never
   std::atomic<uint64_t> camera_source_errors{0};
   std::atomic<uint64_t> imu_source_errors{0};
   // Global step on its own thread (daemon.global_thread). Every request the estimator makes
@@ -77,6 +84,11 @@ struct HealthCounters {
   std::atomic<int> features_left{0}, features_right{0}, ransac_inliers{0}, icp_inliers{0};
 
   std::array<LatencyHistogram, static_cast<int>(Stage::kCount)> latency;
+  /// Per stage: frames whose time in the stage exceeded daemon.deadline.frame_budget_ms.
+  std::array<std::atomic<uint64_t>, static_cast<int>(Stage::kCount)> deadline_misses{};
+  std::atomic<int> degrade_rung{0};             ///< DegradeLadder rung in force
+  std::atomic<uint64_t> degrade_climbs{0};      ///< times the ladder climbed a rung
+  std::atomic<double> recent_p90_ms{0};         ///< the ladder's window p90 at its last decision
   LatencyHistogram& at(Stage s) { return latency[static_cast<int>(s)]; }
   const LatencyHistogram& at(Stage s) const { return latency[static_cast<int>(s)]; }
 };
@@ -99,7 +111,7 @@ struct DriverFaults {
   uint64_t imu_checksum_errors = 0;     ///< serial packets failing their CRC
   uint64_t imu_garbage_bytes = 0;       ///< serial bytes skipped while resynchronising
   uint64_t imu_partial_packets = 0;     ///< reads ending inside a packet (serial or CAN)
-  uint64_t imu_reconnects = 0;          ///< serial port reopened after a failure
+  uint64_t imu_reconnects = 0;          ///< serial port or CAN bus reopened after a failure
   uint64_t imu_bus_errors = 0;          ///< CAN error frames, bus-off, unknown ids, short frames
   uint64_t timestamp_jumps = 0;         ///< device clocks jumping (camera and IMU)
 

@@ -83,7 +83,7 @@ int main(int argc, char** argv) {
   }
   if (!errors.empty()) {
     for (const std::string& e : errors) std::cerr << "seaviod: config error: " << e << "\n";
-    return 2;
+    return seavio::daemon::kExitConfig;
   }
   spdlog::info("seaviod {} effective configuration from {}:\n{}", "0.1.0", config_path,
                seavio::daemon::describe(cfg));
@@ -96,7 +96,7 @@ int main(int argc, char** argv) {
   seavio::daemon::Sources src = seavio::daemon::makeSources(cfg);
   if (!src.error.empty()) {
     std::cerr << "seaviod: " << config_path << ": " << src.error << "\n";
-    return 2;
+    return seavio::daemon::kExitConfig;
   }
 
   std::unique_ptr<seavio::daemon::FrameProcessor> processor;
@@ -116,7 +116,7 @@ int main(int argc, char** argv) {
         calib = std::make_shared<const seavio::drivers::Dataset>(seavio::drivers::loadDataset(cfg.calibration_dataset));
       } catch (const std::exception& e) {
         std::cerr << "seaviod: " << config_path << ": " << key << ": " << e.what() << "\n";
-        return 2;
+        return seavio::daemon::kExitConfig;
       }
     }
     std::string why;
@@ -124,7 +124,7 @@ int main(int argc, char** argv) {
         seavio::daemon::OdometryProcessor::create(calib->calibration, calib->imu_noise, odo_params, &why);
     if (!odometry) {
       std::cerr << "seaviod: " << config_path << ": " << key << ": calibration unusable: " << why << "\n";
-      return 2;
+      return seavio::daemon::kExitConfig;
     }
     if (global) global->setRefiner(odometry->odometry().makeGlobalRefiner([] { return seavio::daemon::monotonicNowNs(); }));
     processor = std::move(odometry);
@@ -151,12 +151,12 @@ int main(int argc, char** argv) {
   if (!daemon.start()) {
     std::cerr << "seaviod: start failed: " << daemon.error() << "\n";
     close(sfd);
-    return 1;
+    return seavio::daemon::kExitFailure;
   }
   spdlog::info("seaviod running, poses on {} channel {}", cfg.lcm.url, cfg.lcm.pose_channel);
 
   const auto t_start = std::chrono::steady_clock::now();
-  int exit_code = 0;
+  int exit_code = seavio::daemon::kExitOk;
   for (;;) {
     pollfd p{sfd, POLLIN, 0};
     const int r = poll(&p, 1, 100);
@@ -171,6 +171,10 @@ int main(int argc, char** argv) {
         }
       }
     }
+    if (daemon.faultExitCode() != 0) {
+      spdlog::critical("seaviod: exiting with status {}: {}", daemon.faultExitCode(), daemon.fault());
+      break;
+    }
     if (daemon.finished()) {
       spdlog::info("seaviod: input ended");
       break;
@@ -183,13 +187,19 @@ int main(int argc, char** argv) {
 done:
   daemon.stop();
   std::cerr << daemon.summary();
+  if (daemon.faultExitCode() != 0) {
+    // A fault can leave frames unaccounted (the thread that held them is gone): the fault is
+    // the reason to report, not the mismatch.
+    close(sfd);
+    return daemon.faultExitCode();
+  }
   if (daemon.accountedFrames() != daemon.health().frames_in) {
     std::cerr << "seaviod: frame accounting mismatch\n";
-    exit_code = 1;
+    exit_code = seavio::daemon::kExitFailure;
   }
   if (daemon.accountedGlobalRequests() != daemon.health().global_requests) {
     std::cerr << "seaviod: global request accounting mismatch\n";
-    exit_code = 1;
+    exit_code = seavio::daemon::kExitFailure;
   }
   close(sfd);
   return exit_code;

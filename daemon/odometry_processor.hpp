@@ -49,6 +49,7 @@ class OdometryProcessor : public FrameProcessor {
     return odo_.track(std::move(spare_), imu);
   }
   std::string name() const override { return "stereo-odometry"; }
+  void setLoadShedding(const odometry::LoadShedding& shed) override { odo_.setLoadShedding(shed); }
   bool runOnWorkerThreads(const std::function<void()>& fn) override { return !pool_ || pool_->runOnEachThread(fn); }
 
   /// Takes `odo` as it is (its clock included).

@@ -1,5 +1,6 @@
 #include "daemon/paced_source.hpp"
 
+#include "core/common/saturating.hpp"
 #include "daemon/daemon.hpp"
 
 namespace seavio::daemon {
@@ -10,7 +11,8 @@ int64_t ReplayClock::dueNs(int64_t t_ns) {
   std::lock_guard<std::mutex> lock(m_);
   if (!anchor_) anchor_ = std::make_pair(t_ns, monotonicNowNs());
   if (speed_ <= 0) return 0;
-  return anchor_->second + static_cast<int64_t>(static_cast<double>(t_ns - anchor_->first) / speed_);
+  const double since_ns = static_cast<double>(saturatingSub(t_ns, anchor_->first)) / speed_;
+  return saturatingAdd(anchor_->second, saturatingFromDouble(since_ns));
 }
 
 }  // namespace seavio::daemon

@@ -9,6 +9,8 @@
 #include <optional>
 #include <thread>
 
+#include "core/common/saturating.hpp"
+#include "drivers/source/replay_pacing.hpp"
 #include "drivers/source/sources.hpp"
 
 namespace seavio::daemon {
@@ -28,6 +30,7 @@ class ReplayClock {
 };
 
 /// Holds each sample of `inner` until it is due; read() never waits longer than `timeout`.
+/// A sample more than drivers::kMaxPacedStepNs past the previous one is released at once.
 template <class Source, class Sample>
 class Paced : public Source {
  public:
@@ -43,6 +46,7 @@ class Paced : public Source {
   std::unique_ptr<Source> inner_;
   std::shared_ptr<ReplayClock> clock_;
   std::optional<Sample> pending_;
+  std::optional<int64_t> last_t_ns_;  ///< stamp of the previous sample released
 };
 
 using PacedCameraSource = Paced<drivers::CameraSource, StereoFrame>;
@@ -58,14 +62,16 @@ drivers::ReadStatus Paced<Source, Sample>::read(Sample& out, std::chrono::millis
     if (st != drivers::ReadStatus::kOk) return st;
     pending_ = std::move(s);
   }
-  if (clock_ && clock_->speed() > 0) {
-    const int64_t wait_ns = clock_->dueNs(pending_->t_ns) - pacedNowNs();
+  const bool leap = last_t_ns_ && saturatingSub(pending_->t_ns, *last_t_ns_) > drivers::kMaxPacedStepNs;
+  if (clock_ && clock_->speed() > 0 && !leap) {
+    const int64_t wait_ns = saturatingSub(clock_->dueNs(pending_->t_ns), pacedNowNs());
     if (wait_ns > 0) {
       const auto cap = std::chrono::duration_cast<std::chrono::nanoseconds>(timeout).count();
       std::this_thread::sleep_for(std::chrono::nanoseconds(std::min<int64_t>(wait_ns, cap)));
       if (wait_ns > cap) return drivers::ReadStatus::kTimeout;
     }
   }
+  last_t_ns_ = pending_->t_ns;
   out = std::move(*pending_);
   pending_.reset();
   return drivers::ReadStatus::kOk;

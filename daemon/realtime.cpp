@@ -9,6 +9,9 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <exception>
+#include <string>
+#include <vector>
 
 namespace seavio::daemon {
 
@@ -44,28 +47,63 @@ std::string describeThreadScheduling() {
   return policyName(policy) + " nice " + std::to_string(errno == 0 ? nice : 0);
 }
 
-SchedulingOutcome applyThreadRole(ThreadRole role, const RealtimeConfig& config, const std::string& thread) {
+namespace {
+
+bool isFramePath(ThreadRole role) {
+  return role == ThreadRole::kImuReader || role == ThreadRole::kCameraReader || role == ThreadRole::kFramePath ||
+         role == ThreadRole::kPublisher;
+}
+
+/// Priority offset from the estimator's: IMU reader +2, camera reader +1, publisher -1.
+int frameRank(ThreadRole role) {
+  switch (role) {
+    case ThreadRole::kImuReader: return 2;
+    case ThreadRole::kCameraReader: return 1;
+    case ThreadRole::kPublisher: return -1;
+    default: return 0;
+  }
+}
+
+SchedulingOutcome applyFramePath(ThreadRole role, const RealtimeConfig& config, const std::string& thread) {
   SchedulingOutcome out;
-  if (role == ThreadRole::kFramePath) {
-    if (config.priority <= 0) {
+  const int rank = frameRank(role);
+  if (config.priority <= 0) {
+    int policy = 0;
+    sched_param cur{};
+    pthread_getschedparam(pthread_self(), &policy, &cur);
+    if (policy != SCHED_FIFO && policy != SCHED_RR) {
       out.ok = true;
       out.message = thread + ": " + describeThreadScheduling() + " (inherited; daemon.realtime.priority 0)";
       return out;
     }
-    sched_param p{};
-    p.sched_priority = config.priority;
-    const int err = pthread_setschedparam(pthread_self(), SCHED_FIFO, &p);
+    // Inherited real-time priority Q (the IMU reader's): the others lower themselves below
+    // it by role, which needs no privilege (sched_setparam, not a policy change).
+    const int target = std::max(1, cur.sched_priority - (2 - rank));
+    const int err = target == cur.sched_priority ? 0 : pthread_setschedprio(pthread_self(), target);
     out.ok = err == 0;
-    out.message = out.ok ? thread + ": " + describeThreadScheduling()
-                         : thread + ": SCHED_FIFO " + std::to_string(config.priority) + " refused (" +
-                               std::strerror(err) + "): needs CAP_SYS_NICE or RLIMIT_RTPRIO >= " +
-                               std::to_string(config.priority) + " (now " + limitText(RLIMIT_RTPRIO) +
-                               "); under systemd set CPUSchedulingPolicy=fifo instead; thread stays " +
-                               describeThreadScheduling();
+    out.message = thread + ": " + describeThreadScheduling() +
+                  (out.ok ? " (inherited " + std::to_string(cur.sched_priority) + ", by role)"
+                          : " (lowering to " + std::to_string(target) + " refused: " + std::strerror(err) + ")");
     return out;
   }
-  // Background: leave any real-time policy inherited from the process (systemd, chrt) and
-  // give way to everything else. Lowering one's own priority needs no privilege.
+  const int priority = std::clamp(config.priority + rank, 1, 98);
+  sched_param p{};
+  p.sched_priority = priority;
+  const int err = pthread_setschedparam(pthread_self(), SCHED_FIFO, &p);
+  out.ok = err == 0;
+  out.message = out.ok ? thread + ": " + describeThreadScheduling()
+                       : thread + ": SCHED_FIFO " + std::to_string(priority) + " refused (" + std::strerror(err) +
+                             "): needs CAP_SYS_NICE or RLIMIT_RTPRIO >= " + std::to_string(priority) + " (now " +
+                             limitText(RLIMIT_RTPRIO) +
+                             "); under systemd set CPUSchedulingPolicy=fifo instead; thread stays " +
+                             describeThreadScheduling();
+  return out;
+}
+
+SchedulingOutcome applyBackground(ThreadRole role, const RealtimeConfig& config, const std::string& thread) {
+  // Leave any real-time policy inherited from the process (systemd, chrt) and give way to
+  // everything else. Lowering one's own priority needs no privilege.
+  SchedulingOutcome out;
   sched_param p{};
   p.sched_priority = 0;
   const int err = pthread_setschedparam(pthread_self(), SCHED_BATCH, &p);
@@ -77,8 +115,10 @@ SchedulingOutcome applyThreadRole(ThreadRole role, const RealtimeConfig& config,
   const id_t tid = static_cast<id_t>(gettid());
   errno = 0;
   const int current = getpriority(PRIO_PROCESS, tid);
+  // Status and recording give way to the ICP thread too.
+  const int wanted = role == ThreadRole::kStatus ? std::min(19, config.background_nice + 5) : config.background_nice;
   // Never raise a nice value the process was started with (that would need privilege).
-  const int nice = std::max(errno == 0 ? current : 0, config.background_nice);
+  const int nice = std::max(errno == 0 ? current : 0, wanted);
   if (setpriority(PRIO_PROCESS, tid, nice) != 0) {
     out.message = thread + ": nice " + std::to_string(nice) + " refused (" + std::strerror(errno) + "); thread is " +
                   describeThreadScheduling();
@@ -89,11 +129,87 @@ SchedulingOutcome applyThreadRole(ThreadRole role, const RealtimeConfig& config,
   return out;
 }
 
+/// Pins the calling thread to `cpus`; empty string, or why not.
+std::string pinTo(const std::vector<int>& cpus) {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  for (int c : cpus)
+    if (c >= 0 && c < CPU_SETSIZE) CPU_SET(c, &set);
+  const int err = pthread_setaffinity_np(pthread_self(), sizeof set, &set);
+  return err == 0 ? std::string() : std::string("CPU affinity refused (") + std::strerror(err) + ")";
+}
+
+std::string cpuText(const std::vector<int>& cpus) {
+  std::string s;
+  for (int c : cpus) {
+    if (!s.empty()) s += ',';
+    s += std::to_string(c);
+  }
+  return s;
+}
+
+}  // namespace
+
+SchedulingOutcome applyThreadRole(ThreadRole role, const RealtimeConfig& config, const std::string& thread) {
+  const bool frame = isFramePath(role);
+  SchedulingOutcome out = frame ? applyFramePath(role, config, thread) : applyBackground(role, config, thread);
+  const std::vector<int>& cpus = frame ? config.frame_cpus : config.background_cpus;
+  if (!cpus.empty()) {
+    const std::string err = pinTo(cpus);
+    out.ok = out.ok && err.empty();
+    out.message += err.empty() ? ", CPUs " + cpuText(cpus) : "; " + err;
+  }
+  return out;
+}
+
+bool parseCpuList(const std::string& text, std::vector<int>& cpus, std::string& error) {
+  cpus.clear();
+  std::size_t i = 0;
+  const long n_cpus = sysconf(_SC_NPROCESSORS_CONF);
+  auto number = [&](int& v) {
+    std::size_t used = 0;
+    try {
+      v = std::stoi(text.substr(i), &used);
+    } catch (const std::exception&) {
+      return false;
+    }
+    i += used;
+    return v >= 0;
+  };
+  while (i < text.size()) {
+    int a = 0, b = 0;
+    if (!number(a)) break;
+    b = a;
+    if (i < text.size() && text[i] == '-') {
+      ++i;
+      if (!number(b) || b < a) break;
+    }
+    for (int c = a; c <= b; ++c) cpus.push_back(c);
+    if (i == text.size()) {
+      for (int c : cpus) {
+        if (c >= CPU_SETSIZE || (n_cpus > 0 && c >= n_cpus)) {
+          error = "CPU " + std::to_string(c) + " does not exist (this machine has " + std::to_string(n_cpus) + ")";
+          return false;
+        }
+      }
+      return true;
+    }
+    if (text[i] != ',') break;
+    ++i;
+  }
+  error = "'" + text + "' is not a CPU list like 0,2-3";
+  return false;
+}
+
 SchedulingOutcome lockAllMemory() {
   SchedulingOutcome out;
-  if (mlockall(MCL_CURRENT | MCL_FUTURE) == 0) {
+  // MCL_ONFAULT: a page is locked when first touched instead of every mapping being faulted
+  // in at once; locking the 8 MB stack of each thread up front made the first frame late.
+  int rc = mlockall(MCL_CURRENT | MCL_FUTURE | MCL_ONFAULT);
+  if (rc != 0 && errno == EINVAL) rc = mlockall(MCL_CURRENT | MCL_FUTURE);  // kernel before 4.4
+  if (rc == 0) {
     out.ok = true;
-    out.message = "memory locked (mlockall): no page faults on the frame path after warm-up";
+    out.message = "memory locked (mlockall, on fault): no page faults on the frame path after warm-up";
     return out;
   }
   out.message = std::string("mlockall refused (") + std::strerror(errno) + "): needs RLIMIT_MEMLOCK (now " +

@@ -1,6 +1,9 @@
 #pragma once
 /// Fixed-capacity lock-free single-producer/single-consumer rings over
 /// moodycamel::BlockingReaderWriterCircularBuffer. Each push names its full policy.
+/// The buffer stores the items and hands them over (its atomics order the data); every wait
+/// sleeps on the rings' own MonotonicSemaphore, never on the buffer's timed waits, which run
+/// on the wall clock (daemon/monotonic_semaphore.hpp).
 #include <atomic>
 #include <chrono>
 #include <cstddef>
@@ -9,7 +12,74 @@
 
 #include <readerwriterqueue/readerwritercircularbuffer.h>
 
+#include "daemon/monotonic_semaphore.hpp"
+
 namespace seavio::daemon {
+
+/// The storage and waiting both rings share. `items_` counts what the consumer may take;
+/// `slots_` wakes a producer waiting for room (signalled only while one waits, so its count
+/// stays small).
+template <class T>
+class MonotonicRing {
+ public:
+  explicit MonotonicRing(std::size_t capacity) : q_(capacity) {}
+
+  /// Enqueues `item` if there is room; `item` is left untouched otherwise. Never blocks.
+  bool tryPush(T&& item) {
+    if (!q_.try_enqueue(std::move(item))) return false;
+    items_.signal();
+    return true;
+  }
+
+  /// Enqueues `item`, waiting at most `timeout` (monotonic) for room. On timeout false and
+  /// `item` untouched.
+  template <class Rep, class Period>
+  bool pushWaitFor(T&& item, std::chrono::duration<Rep, Period> timeout) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    for (;;) {
+      producer_waiting_.store(true);
+      std::atomic_thread_fence(std::memory_order_seq_cst);  // flag before the room check
+      if (tryPush(std::move(item))) {
+        producer_waiting_.store(false);
+        return true;
+      }
+      const auto left = deadline - std::chrono::steady_clock::now();
+      if (left <= decltype(left)::zero() ||
+          !slots_.waitFor(std::chrono::duration_cast<std::chrono::nanoseconds>(left))) {
+        producer_waiting_.store(false);
+        return tryPush(std::move(item));
+      }
+    }
+  }
+
+  /// Dequeues the oldest item, waiting at most `timeout` (monotonic). False on timeout.
+  template <class Rep, class Period>
+  bool popWaitFor(T& out, std::chrono::duration<Rep, Period> timeout) {
+    if (!items_.waitFor(std::chrono::duration_cast<std::chrono::nanoseconds>(timeout))) return false;
+    return take(out);
+  }
+
+  /// Dequeues the oldest item if there is one, without waiting.
+  bool tryPop(T& out) { return items_.tryWait() && take(out); }
+
+  std::size_t sizeApprox() const { return q_.size_approx(); }
+  std::size_t capacity() const { return q_.max_capacity(); }
+
+ private:
+  /// After a count of `items_` was taken: one item is there (one consumer took the count
+  /// the producer gave for it).
+  bool take(T& out) {
+    const bool ok = q_.try_dequeue(out);
+    std::atomic_thread_fence(std::memory_order_seq_cst);  // room made before the flag check
+    if (producer_waiting_.exchange(false)) slots_.signal();
+    return ok;
+  }
+
+  moodycamel::BlockingReaderWriterCircularBuffer<T> q_;
+  MonotonicSemaphore items_;
+  MonotonicSemaphore slots_;
+  std::atomic<bool> producer_waiting_{false};
+};
 
 /// Ring whose push never blocks and never loses silently: a push into a full ring fails
 /// and is counted in overflowed(). One producer thread, one consumer thread.
@@ -21,7 +91,7 @@ class SpscRing {
   /// Enqueues `item`; if the ring is full the item is discarded, overflowed() grows and
   /// false is returned. Never blocks, never allocates.
   bool pushOrCountOverflow(T&& item) {
-    if (q_.try_enqueue(std::move(item))) return true;
+    if (q_.tryPush(std::move(item))) return true;
     overflow_.fetch_add(1, std::memory_order_relaxed);
     return false;
   }
@@ -30,24 +100,24 @@ class SpscRing {
   /// false is returned and `item` is left untouched; nothing is counted.
   template <class Rep, class Period>
   bool pushWaitFor(T&& item, std::chrono::duration<Rep, Period> timeout) {
-    return q_.wait_enqueue_timed(std::move(item), timeout);
+    return q_.pushWaitFor(std::move(item), timeout);
   }
 
   /// Dequeues the oldest item, waiting at most `timeout`. False on timeout.
   template <class Rep, class Period>
   bool popWaitFor(T& out, std::chrono::duration<Rep, Period> timeout) {
-    return q_.wait_dequeue_timed(out, timeout);
+    return q_.popWaitFor(out, timeout);
   }
 
   /// Dequeues the oldest item if there is one, without waiting.
-  bool tryPop(T& out) { return q_.try_dequeue(out); }
+  bool tryPop(T& out) { return q_.tryPop(out); }
 
-  std::size_t sizeApprox() const { return q_.size_approx(); }
-  std::size_t capacity() const { return q_.max_capacity(); }
+  std::size_t sizeApprox() const { return q_.sizeApprox(); }
+  std::size_t capacity() const { return q_.capacity(); }
   uint64_t overflowed() const { return overflow_.load(std::memory_order_relaxed); }
 
  private:
-  moodycamel::BlockingReaderWriterCircularBuffer<T> q_;
+  MonotonicRing<T> q_;
   std::atomic<uint64_t> overflow_{0};
 };
 
@@ -65,7 +135,7 @@ class FrameRing {
 
   /// Never blocks. See the class comment for which frame is dropped when full.
   bool pushDroppingOldestIfFull(T&& item) {
-    if (q_.try_enqueue(std::move(item))) return true;
+    if (q_.tryPush(std::move(item))) return true;
     dropped_.fetch_add(1, std::memory_order_relaxed);
     return false;
   }
@@ -76,22 +146,22 @@ class FrameRing {
   /// guarantee that a non-blocking push succeeds. On timeout `item` is left untouched.
   template <class Rep, class Period>
   bool pushWaitFor(T&& item, std::chrono::duration<Rep, Period> timeout) {
-    return q_.wait_enqueue_timed(std::move(item), timeout);
+    return q_.pushWaitFor(std::move(item), timeout);
   }
 
   /// Waits at most `timeout` for a frame, then drains to the newest one; older frames
   /// are counted as dropped. False on timeout.
   template <class Rep, class Period>
   bool popNewestWaitFor(T& out, std::chrono::duration<Rep, Period> timeout) {
-    if (!q_.wait_dequeue_timed(out, timeout)) return false;
-    while (q_.try_dequeue(out)) dropped_.fetch_add(1, std::memory_order_relaxed);
+    if (!q_.popWaitFor(out, timeout)) return false;
+    while (q_.tryPop(out)) dropped_.fetch_add(1, std::memory_order_relaxed);
     return true;
   }
 
   /// Waits at most `timeout` for the oldest frame (no draining: replay keeps every frame).
   template <class Rep, class Period>
   bool popWaitFor(T& out, std::chrono::duration<Rep, Period> timeout) {
-    return q_.wait_dequeue_timed(out, timeout);
+    return q_.popWaitFor(out, timeout);
   }
 
   /// Removes everything left and returns how many (the caller counts them, e.g. as frames
@@ -99,16 +169,16 @@ class FrameRing {
   std::size_t drain() {
     std::size_t n = 0;
     T tmp;
-    while (q_.try_dequeue(tmp)) ++n;
+    while (q_.tryPop(tmp)) ++n;
     return n;
   }
 
-  std::size_t sizeApprox() const { return q_.size_approx(); }
-  std::size_t capacity() const { return q_.max_capacity(); }
+  std::size_t sizeApprox() const { return q_.sizeApprox(); }
+  std::size_t capacity() const { return q_.capacity(); }
   uint64_t dropped() const { return dropped_.load(std::memory_order_relaxed); }
 
  private:
-  moodycamel::BlockingReaderWriterCircularBuffer<T> q_;
+  MonotonicRing<T> q_;
   std::atomic<uint64_t> dropped_{0};
 };
 

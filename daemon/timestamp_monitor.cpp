@@ -1,5 +1,7 @@
 #include "daemon/timestamp_monitor.hpp"
 
+#include "core/common/saturating.hpp"
+
 namespace seavio::daemon {
 
 StampCheck TimestampMonitor::check(int64_t t_ns) {
@@ -18,7 +20,7 @@ StampCheck TimestampMonitor::check(int64_t t_ns) {
     return StampCheck::kRestart;
   }
   run_ = 0;
-  const int64_t dt = t_ns - last_;
+  const int64_t dt = saturatingSub(t_ns, last_);  // stamps from outside: any int64
   last_ = t_ns;
   return dt > max_gap_ns_ ? StampCheck::kGap : StampCheck::kOk;
 }

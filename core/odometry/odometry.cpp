@@ -294,7 +294,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     r.source = PoseSource::kInit;
     // Paper III-B: a proportional controller holds the feature count (and, in snow, the stereo
     // matches) for the next frame; nothing tracked yet, so no inliers.
-    controller_.update(r.quality.features_left, descriptorStereoMatches(r.quality), -1);
+    updateController(r.quality.features_left, descriptorStereoMatches(r.quality), -1);
     const Eigen::Isometry3d T_W_R0 = state_.T_W_B * T_B_R0;
     if (params_.mode == Mode::kGlobal && deferred_) {
       makeGlobalRequest(frame, T_W_R0, r, true);
@@ -432,7 +432,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     rescued = true;
     return true;
   };
-  if (!vision_ok && params_.rescue_inlier_threshold_px > 0) {
+  if (!vision_ok && params_.rescue_inlier_threshold_px > 0 && shed_.rescue_retries) {
     vision_ok = rescue();
     if (!vision_ok && params_.temporal.use_prediction) {
       // After a lost frame the coasting prediction can be too wrong for its windows (a fast
@@ -838,7 +838,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   }
 
   publishState(r);
-  if (params_.mode == Mode::kGlobal && r.source == PoseSource::kVision) {
+  if (params_.mode == Mode::kGlobal && r.source == PoseSource::kVision && shed_.global_step) {
     if (deferred_) {
       makeGlobalRequest(frame, T_W_R0, r, false);
     } else {
@@ -892,9 +892,21 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   r.times.total_ms = r.times.rectify_ms + r.times.features_ms + r.times.stereo_ms + timer.total_ms();
   // Paper III-B's controller for the next frame, also holding the inliers against the previous
   // frame (target_inliers: the overlap decides how many features become inliers).
-  controller_.update(r.quality.features_left, descriptorStereoMatches(r.quality),
-                     reference_is_previous ? r.quality.ransac_inliers : -1);
+  updateController(r.quality.features_left, descriptorStereoMatches(r.quality),
+                   reference_is_previous ? r.quality.ransac_inliers : -1);
   return r;
+}
+
+void Odometry::updateController(int features, int stereo_matches, int inliers) {
+  // Under load shedding the controller sees the counts as if they were 1 / fraction times
+  // larger, so it settles where the real ones are that fraction of every target.
+  const double f = shed_.feature_fraction;
+  if (!(f > 0.0) || f >= 1.0) {
+    controller_.update(features, stereo_matches, inliers);
+    return;
+  }
+  const auto scale = [f](int n) { return static_cast<int>(std::lround(n / f)); };
+  controller_.update(scale(features), scale(stereo_matches), inliers < 0 ? inliers : scale(inliers));
 }
 
 void Odometry::newKeyframe(const FrameFeatures& frame, const Eigen::Isometry3d& T_W_R0, int64_t t_ns) {

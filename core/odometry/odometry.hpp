@@ -11,6 +11,7 @@
 #include "core/camera/stereo_rectifier.hpp"
 #include "core/common/types.hpp"
 #include "core/features/feature_count_controller.hpp"
+#include "core/odometry/load_shedding.hpp"
 #include "core/geometry/quadrifocal_ransac.hpp"
 #include "core/icp/icp.hpp"
 #include "core/imu/accel_bias_estimator.hpp"
@@ -292,6 +293,9 @@ class Odometry {
 
   const Frontend& frontend() const { return frontend_; }
   double detectorThreshold() const { return controller_.threshold(); }
+  /// What to leave out from the next frame on (the daemon's overload ladder).
+  void setLoadShedding(const LoadShedding& shed) { shed_ = shed; }
+  const LoadShedding& loadShedding() const { return shed_; }
   /// The steering angle for upright SURF of the frame at `t_ns` (degrees, clockwise in the
   /// rectified image): the direction of W's x axis there, from the last pose turned by the
   /// gyro samples up to `t_ns` (those kept and the new `imu`). 0 unless upright and steering
@@ -342,6 +346,10 @@ class Odometry {
   OdometryParams params_;
   NowNsFn now_;
   features::FeatureCountController controller_;
+  LoadShedding shed_;
+  /// controller_.update with the counts scaled by 1 / shed_.feature_fraction, so it settles
+  /// at that fraction of its targets; `inliers` < 0 passes through.
+  void updateController(int features, int stereo_matches, int inliers);
   geometry::QuadrifocalRansac ransac_;
   geometry::QuadrifocalRansac rescue_ransac_;  ///< relaxed threshold (rescue_inlier_threshold_px)
   GlobalRefiner refiner_;  ///< the inline global step (unused when deferred)

@@ -10,10 +10,16 @@
 
 #include <cerrno>
 #include <cstring>
+#include <thread>
 
 namespace seavio::drivers {
 
-CanImuSource::CanImuSource(CanImuConfig cfg) : cfg_(std::move(cfg)), decoder_(cfg_.profile), clock_(cfg_.clock) {}
+CanImuSource::CanImuSource(CanImuConfig cfg)
+    : cfg_(std::move(cfg)),
+      filters_(canIdFilters(cfg_.profile)),
+      backoff_(cfg_.reconnect),
+      decoder_(cfg_.profile),
+      clock_(cfg_.clock) {}
 
 CanImuSource::~CanImuSource() { stop(); }
 
@@ -27,6 +33,8 @@ bool CanImuSource::start() {
   stop();
   decoder_ = CanImuDecoder(cfg_.profile);
   clock_.reset();
+  lost_ = false;
+  backoff_.succeeded();
   if (!cfg_.candump_log.empty()) {
     use_log_ = log_.open(cfg_.candump_log);
     if (!use_log_) error_ = log_.error();
@@ -37,33 +45,84 @@ bool CanImuSource::start() {
     own_fd_ = false;
     return true;
   }
+  if (!openBus()) {
+    spdlog::error("CAN IMU: {}", error_);
+    return false;
+  }
+  spdlog::info("CAN IMU: profile '{}' on {}, kernel filter on {} id(s)", cfg_.profile.name, cfg_.interface,
+               filters_.size());
+  return true;
+}
+
+bool CanImuSource::openBus() {
+  if (cfg_.open_bus) {
+    fd_ = cfg_.open_bus(error_);
+    own_fd_ = fd_ >= 0;
+    return own_fd_;
+  }
   const unsigned ifindex = if_nametoindex(cfg_.interface.c_str());
   if (ifindex == 0) {
     error_ = "CAN interface '" + cfg_.interface + "' does not exist";
-    spdlog::error("CAN IMU: {}", error_);
     return false;
   }
   fd_ = socket(PF_CAN, SOCK_RAW | SOCK_CLOEXEC, CAN_RAW);
   if (fd_ < 0) {
     error_ = "CAN interface '" + cfg_.interface + "': socket(PF_CAN) failed: " + std::strerror(errno);
-    spdlog::error("CAN IMU: {}", error_);
     return false;
   }
   own_fd_ = true;
   // Ask the controller for every error class so bus-off and error passive are counted.
   const can_err_mask_t err_mask = CAN_ERR_MASK;
   setsockopt(fd_, SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &err_mask, sizeof err_mask);
+  // Only the profile's identifiers: other nodes' traffic never wakes this thread. Refused,
+  // the same filter still runs in handle(), at the cost of the wake-ups.
+  if (setsockopt(fd_, SOL_CAN_RAW, CAN_RAW_FILTER, filters_.data(),
+                 static_cast<socklen_t>(filters_.size() * sizeof(can_filter))) != 0) {
+    spdlog::warn("CAN IMU: {}: CAN_RAW_FILTER refused ({}): filtering in user space", cfg_.interface,
+                 std::strerror(errno));
+  }
   sockaddr_can addr{};
   addr.can_family = AF_CAN;
   addr.can_ifindex = static_cast<int>(ifindex);
   if (bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
     error_ = "CAN interface '" + cfg_.interface + "': bind failed: " + std::strerror(errno);
-    spdlog::error("CAN IMU: {}", error_);
     stop();
     return false;
   }
-  spdlog::info("CAN IMU: profile '{}' on {}", cfg_.profile.name, cfg_.interface);
   return true;
+}
+
+ReadStatus CanImuSource::lose(const std::string& why) {
+  error_ = why;
+  spdlog::error("CAN IMU: {}", error_);
+  if (!own_fd_) return ReadStatus::kError;  // a borrowed fd is not ours to reopen
+  ::close(fd_);
+  fd_ = -1;
+  own_fd_ = false;
+  lost_ = true;
+  backoff_.failed(monotonicNowNs());
+  return ReadStatus::kError;
+}
+
+ReadStatus CanImuSource::reconnect(std::chrono::milliseconds timeout) {
+  const int64_t now = monotonicNowNs();
+  if (!backoff_.due(now)) {
+    const int64_t wait_ns = std::min<int64_t>(backoff_.waitNs(now), std::chrono::nanoseconds(timeout).count());
+    std::this_thread::sleep_for(std::chrono::nanoseconds(wait_ns));
+    return ReadStatus::kTimeout;
+  }
+  if (!openBus()) {
+    const int64_t t = monotonicNowNs();
+    backoff_.failed(t);
+    spdlog::warn("CAN IMU: reopening {} failed: {}; next try in {} ms", name(), error_, backoff_.waitNs(t) / 1'000'000);
+    return ReadStatus::kTimeout;
+  }
+  lost_ = false;
+  backoff_.succeeded();
+  decoder_ = CanImuDecoder(cfg_.profile);  // a half-assembled sample from before is stale
+  ++faults_.reconnects;
+  spdlog::warn("CAN IMU: {} reopened ({} so far)", name(), faults_.reconnects);
+  return ReadStatus::kTimeout;
 }
 
 void CanImuSource::stop() {
@@ -71,9 +130,14 @@ void CanImuSource::stop() {
   fd_ = -1;
   own_fd_ = false;
   use_log_ = false;
+  lost_ = false;
 }
 
 void CanImuSource::handle(const can_frame& f, int64_t host_ns) {
+  if (!(f.can_id & CAN_ERR_FLAG) && !canFilterAccepts(filters_, f.can_id)) {
+    ++faults_.foreign_frames;
+    return;
+  }
   const CanDecoderStats before = decoder_.stats();
   const auto m = decoder_.decode(f);
   const CanDecoderStats& s = decoder_.stats();
@@ -126,6 +190,7 @@ ReadStatus CanImuSource::read(ImuSample& out, std::chrono::milliseconds timeout)
       handle(r->frame, r->t_ns);
       continue;
     }
+    if (fd_ < 0 && lost_) return reconnect(timeout);
     if (fd_ < 0) {
       error_ = name() + ": not started";
       return ReadStatus::kError;
@@ -135,10 +200,7 @@ ReadStatus CanImuSource::read(ImuSample& out, std::chrono::milliseconds timeout)
     if (left.count() < 0) return ReadStatus::kTimeout;
     pollfd pfd{fd_, POLLIN, 0};
     const int pr = ::poll(&pfd, 1, static_cast<int>(left.count()));
-    if (pr < 0 && errno != EINTR) {
-      error_ = name() + ": poll failed: " + std::strerror(errno);
-      return ReadStatus::kError;
-    }
+    if (pr < 0 && errno != EINTR) return lose(name() + ": poll failed: " + std::strerror(errno));
     if (pr <= 0) {
       if (std::chrono::steady_clock::now() >= deadline) return ReadStatus::kTimeout;
       continue;
@@ -154,9 +216,8 @@ ReadStatus CanImuSource::read(ImuSample& out, std::chrono::milliseconds timeout)
     } else if (n < 0 && (errno == EAGAIN || errno == EINTR)) {
       continue;
     } else {
-      error_ = name() + (n == 0 ? ": peer closed" : ": read failed: " + std::string(std::strerror(errno)));
-      spdlog::error("CAN IMU: {}", error_);
-      return ReadStatus::kError;
+      // ENETDOWN: the interface went down; ENODEV: it was removed (USB adapter unplugged).
+      return lose(name() + (n == 0 ? ": peer closed" : ": read failed: " + std::string(std::strerror(errno))));
     }
   }
   out = ready_.front();

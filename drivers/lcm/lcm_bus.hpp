@@ -3,6 +3,7 @@
 /// with decode-failure counting, and a receive loop step with a timeout.
 #include <atomic>
 #include <cstdint>
+#include <exception>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -53,7 +54,9 @@ class LcmBus {
   }
 
   /// Calls `fn` for every message on `channel` that decodes as Msg; the rest are counted
-  /// in decodeFailures(). Handlers run inside handle() on the caller's thread.
+  /// in decodeFailures(). Handlers run inside handle() on the caller's thread; an exception
+  /// thrown by `fn` cannot unwind through LCM's C frames, so it is held and rethrown by
+  /// handle() once LCM has returned (the calling thread's top-level catch reports it).
   template <class Msg>
   void subscribe(const std::string& channel, std::function<void(const Msg&)> fn) {
     subscribeRaw(channel, [this, fn = std::move(fn)](const lcm_recv_buf_t* rbuf) {
@@ -67,7 +70,7 @@ class LcmBus {
   }
 
   /// Handles at most one incoming message. Returns 1 if one was handled, 0 on timeout,
-  /// -1 on error. @param timeout_ms [ms]
+  /// -1 on error; rethrows what a handler threw. @param timeout_ms [ms]
   int handle(int timeout_ms);
 
   uint64_t publishFailures() const { return publish_failures_.load(std::memory_order_relaxed); }
@@ -81,8 +84,14 @@ class LcmBus {
   struct Handler {
     std::function<void(const lcm_recv_buf_t*)> fn;
     lcm_subscription_t* sub = nullptr;
+    std::exception_ptr* thrown = nullptr;  ///< the bus' held exception
     static void onMessage(const lcm_recv_buf_t* rbuf, const char*, void* self) {
-      static_cast<Handler*>(self)->fn(rbuf);
+      auto* h = static_cast<Handler*>(self);
+      try {
+        h->fn(rbuf);
+      } catch (...) {
+        if (!*h->thrown) *h->thrown = std::current_exception();
+      }
     }
   };
 
@@ -94,6 +103,7 @@ class LcmBus {
   std::vector<std::unique_ptr<Handler>> handlers_;
   std::unique_ptr<lcm::LCM> lcm_;
   std::mutex publish_mutex_;  ///< serializes publish() across threads
+  std::exception_ptr thrown_;  ///< a handler's exception, until handle() rethrows it
   std::atomic<uint64_t> publish_failures_{0};
   std::atomic<uint64_t> decode_failures_{0};
 };

@@ -1,5 +1,8 @@
 #include "drivers/lcm/lcm_log_replay.hpp"
 
+#include "core/common/saturating.hpp"
+#include "drivers/source/replay_pacing.hpp"
+
 #include <cmath>
 #include <sstream>
 #include <thread>
@@ -87,6 +90,7 @@ bool LcmLogChannelReader::open(std::string* error) {
   log_t0_us_.reset();
   imu_horizon_ns_ = ImuHorizonReporter::kNoImu;
   consumed_order_ = false;
+  last_t_us_.reset();
   wall0_ = std::chrono::steady_clock::now();
   return true;
 }
@@ -126,18 +130,24 @@ ReadStatus LcmLogChannelReader::next(ScannedEvent& out, std::chrono::millisecond
                          "' skipped (later events on it are counted, not reported)");
     }
   }
-  if (url_.speed > 0) {
-    const auto due = wall0_ + std::chrono::microseconds(static_cast<int64_t>(
-                                  static_cast<double>(pending_->t_us - *log_t0_us_) / url_.speed));
-    const auto now = std::chrono::steady_clock::now();
-    if (due > now) {
-      if (due - now > timeout) {
+  // Event times come from the file: saturating arithmetic, and a leap far past the channel's
+  // previous event is released at once rather than waited for (kMaxPacedStepNs).
+  const bool leap = last_t_us_ && saturatingSub(pending_->t_us, *last_t_us_) > kMaxPacedStepNs / 1000;
+  if (url_.speed > 0 && !leap) {
+    const int64_t delay_us =
+        saturatingFromDouble(static_cast<double>(saturatingSub(pending_->t_us, *log_t0_us_)) / url_.speed);
+    const int64_t elapsed_us =
+        std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now() - wall0_).count();
+    const int64_t wait_us = saturatingSub(delay_us, elapsed_us);
+    if (wait_us > 0) {
+      if (wait_us > std::chrono::duration_cast<std::chrono::microseconds>(timeout).count()) {
         std::this_thread::sleep_for(timeout);
         return ReadStatus::kTimeout;
       }
-      std::this_thread::sleep_until(due);
+      std::this_thread::sleep_for(std::chrono::microseconds(wait_us));
     }
   }
+  last_t_us_ = pending_->t_us;
   out = std::move(*pending_);
   pending_.reset();
   return ReadStatus::kOk;

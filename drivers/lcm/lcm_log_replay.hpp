@@ -77,6 +77,7 @@ class LcmLogChannelReader {
   uint64_t reports_issued_ = 0;
   bool ended_ = false;
   std::optional<int64_t> log_t0_us_;
+  std::optional<int64_t> last_t_us_;  ///< the previous event released on this channel [us]
   std::chrono::steady_clock::time_point wall0_;
 };
 

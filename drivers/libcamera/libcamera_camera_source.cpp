@@ -4,9 +4,13 @@
 #include <spdlog/spdlog.h>
 #include <sys/mman.h>
 
+#include <atomic>
 #include <condition_variable>
 #include <deque>
+#include <exception>
 #include <mutex>
+#include <thread>
+#include <utility>
 #include <vector>
 
 namespace seavio::drivers {
@@ -17,7 +21,11 @@ struct LibcameraCameraSource::Impl {
   std::unique_ptr<lc::CameraManager> manager;
   std::shared_ptr<lc::Camera> camera;
   bool acquired = false;
-  bool running = false;
+  /// Read by onComplete on libcamera's thread while start()/stop() write it on the caller's:
+  /// cleared before Camera::stop(), so no completed request is queued again after it.
+  std::atomic<bool> running{false};
+  /// Set by onDisconnected on libcamera's thread; read() reopens the camera.
+  std::atomic<bool> lost{false};
   std::unique_ptr<lc::CameraConfiguration> config;
   std::unique_ptr<lc::FrameBufferAllocator> allocator;
   std::vector<std::unique_ptr<lc::Request>> requests;
@@ -38,7 +46,27 @@ struct LibcameraCameraSource::Impl {
   int64_t time_offset_ns = 0;
   std::size_t max_ready = 4;
 
+  void onDisconnected() {
+    lost = true;
+    cv.notify_all();
+  }
+
+  /// What onComplete threw: it runs on libcamera's thread, through libcamera's signal
+  /// dispatch, which an exception must not cross; read() rethrows it on the camera thread,
+  /// whose top-level catch reports it (guarded by m).
+  std::exception_ptr thrown;
+
   void onComplete(lc::Request* r) {
+    try {
+      complete(r);
+    } catch (...) {
+      std::lock_guard<std::mutex> lock(m);
+      if (!thrown) thrown = std::current_exception();
+      cv.notify_all();
+    }
+  }
+
+  void complete(lc::Request* r) {
     if (r->status() == lc::Request::RequestCancelled) return;
     const lc::FrameBuffer* fb = r->buffers().begin()->second;
     const lc::FrameMetadata& md = fb->metadata();
@@ -91,7 +119,7 @@ struct LibcameraCameraSource::Impl {
 };
 
 LibcameraCameraSource::LibcameraCameraSource(LibcameraConfig cfg)
-    : cfg_(std::move(cfg)), impl_(std::make_unique<Impl>()) {}
+    : cfg_(std::move(cfg)), backoff_(cfg_.reconnect), impl_(std::make_unique<Impl>()) {}
 
 LibcameraCameraSource::~LibcameraCameraSource() { stop(); }
 
@@ -156,6 +184,8 @@ bool LibcameraCameraSource::start() {
     im.requests.push_back(std::move(req));
   }
   im.camera->requestCompleted.connect(impl_.get(), &Impl::onComplete);
+  im.camera->disconnected.connect(impl_.get(), &Impl::onDisconnected);
+  im.lost = false;
   im.running = true;
   if (im.camera->start() != 0) return fail("start failed");
   for (auto& r : im.requests)
@@ -171,7 +201,10 @@ void LibcameraCameraSource::stop() {
     im.camera->stop();
   }
   im.running = false;
-  if (im.camera) im.camera->requestCompleted.disconnect(impl_.get());
+  if (im.camera) {
+    im.camera->requestCompleted.disconnect(impl_.get());
+    im.camera->disconnected.disconnect(impl_.get());
+  }
   im.requests.clear();
   for (auto& [p, n] : im.maps) munmap(p, n);
   im.maps.clear();
@@ -184,14 +217,52 @@ void LibcameraCameraSource::stop() {
   im.manager.reset();
 }
 
+ReadStatus LibcameraCameraSource::reconnect(std::chrono::milliseconds timeout) {
+  const auto now_ns = [] {
+    return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+        .count();
+  };
+  const int64_t now = now_ns();
+  if (!backoff_.due(now)) {
+    const int64_t wait_ns = std::min<int64_t>(backoff_.waitNs(now), std::chrono::nanoseconds(timeout).count());
+    std::this_thread::sleep_for(std::chrono::nanoseconds(wait_ns));
+    return ReadStatus::kTimeout;
+  }
+  if (!start()) {  // logs why
+    impl_->lost = true;
+    backoff_.failed(now_ns());
+    return ReadStatus::kTimeout;
+  }
+  backoff_.succeeded();
+  std::lock_guard<std::mutex> lock(impl_->m);
+  ++impl_->faults.reconnects;
+  spdlog::warn("libcamera: {} reopened ({} so far)", name(), impl_->faults.reconnects);
+  return ReadStatus::kTimeout;
+}
+
 ReadStatus LibcameraCameraSource::read(StereoFrame& out, std::chrono::milliseconds timeout) {
   Impl& im = *impl_;
+  if (im.lost && im.running) {
+    spdlog::error("libcamera: {} disconnected; reopening in {} ms", name(), backoff_.nextDelayMs());
+    stop();
+    im.lost = true;  // stop() leaves it; reconnect() clears it on success
+    backoff_.failed(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                        std::chrono::steady_clock::now().time_since_epoch())
+                        .count());
+    std::lock_guard<std::mutex> lock(im.m);
+    im.error = name() + ": camera disconnected";
+    return ReadStatus::kError;
+  }
+  if (im.lost) return reconnect(timeout);
   std::unique_lock<std::mutex> lock(im.m);
   if (!im.running) {
     im.error = name() + ": not started";
     return ReadStatus::kError;
   }
-  if (!im.cv.wait_for(lock, timeout, [&] { return !im.ready.empty(); })) return ReadStatus::kTimeout;
+  if (!im.cv.wait_for(lock, timeout, [&] { return !im.ready.empty() || im.lost || im.thrown; }))
+    return ReadStatus::kTimeout;
+  if (im.thrown) std::rethrow_exception(std::exchange(im.thrown, nullptr));
+  if (im.ready.empty()) return ReadStatus::kTimeout;  // lost: the next read reopens
   out = std::move(im.ready.front());
   im.ready.pop_front();
   return ReadStatus::kOk;

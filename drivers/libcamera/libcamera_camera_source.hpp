@@ -7,6 +7,7 @@
 #include <memory>
 #include <string>
 
+#include "drivers/source/reconnect_backoff.hpp"
 #include "drivers/source/sources.hpp"
 
 namespace seavio::drivers {
@@ -18,11 +19,14 @@ struct LibcameraConfig {
   int height = 480;            ///< [px]
   int n_buffers = 4;           ///< requests kept in flight
   int64_t time_offset_ns = 0;  ///< camera-to-IMU offset added to SensorTimestamp [ns]
+  /// A camera that disconnects (libcamera's Camera::disconnected) is reopened on this schedule.
+  ReconnectBackoffConfig reconnect;
 };
 
 struct LibcameraFaults {
   uint64_t frames_dropped = 0;  ///< sequence gaps
   uint64_t corrupt_frames = 0;  ///< FrameError / cancelled requests
+  uint64_t reconnects = 0;      ///< the camera reopened after it disconnected
 };
 
 class LibcameraCameraSource final : public CameraSource {
@@ -42,7 +46,10 @@ class LibcameraCameraSource final : public CameraSource {
 
  private:
   struct Impl;
+  /// While the camera is lost: reopens it when the backoff allows, else waits up to `timeout`.
+  ReadStatus reconnect(std::chrono::milliseconds timeout);
   LibcameraConfig cfg_;
+  ReconnectBackoff backoff_;
   std::unique_ptr<Impl> impl_;
 };
 

@@ -5,11 +5,15 @@
 
 #include <cerrno>
 #include <cstring>
+#include <thread>
 
 namespace seavio::drivers {
 
 V4l2CameraSource::V4l2CameraSource(V4l2CameraConfig cfg, std::unique_ptr<V4l2Device> device)
-    : cfg_(std::move(cfg)), dev_(device ? std::move(device) : makePosixV4l2Device()), clock_(cfg_.clock) {}
+    : cfg_(std::move(cfg)),
+      dev_(device ? std::move(device) : makePosixV4l2Device()),
+      clock_(cfg_.clock),
+      backoff_(cfg_.reconnect) {}
 
 V4l2CameraSource::~V4l2CameraSource() { stop(); }
 
@@ -22,6 +26,7 @@ bool V4l2CameraSource::fail(const std::string& what) {
 
 bool V4l2CameraSource::start() {
   stop();
+  lost_ = false;
   errno = 0;
   if (cfg_.width <= 0 || cfg_.height <= 0 || cfg_.width % 2 != 0) return fail("width must be even and sizes positive");
   uint32_t want;
@@ -123,9 +128,38 @@ void V4l2CameraSource::stop() {
   }
   buffers_.clear();
   if (dev_) dev_->close();
+  lost_ = false;
+}
+
+ReadStatus V4l2CameraSource::lose(const std::string& why) {
+  error_ = why;
+  spdlog::error("v4l2: {}; reopening in {} ms", error_, backoff_.nextDelayMs());
+  stop();
+  lost_ = true;
+  backoff_.failed(monotonicNowNs());
+  return ReadStatus::kError;
+}
+
+ReadStatus V4l2CameraSource::reconnect(std::chrono::milliseconds timeout) {
+  const int64_t now = monotonicNowNs();
+  if (!backoff_.due(now)) {
+    const int64_t wait_ns = std::min<int64_t>(backoff_.waitNs(now), std::chrono::nanoseconds(timeout).count());
+    std::this_thread::sleep_for(std::chrono::nanoseconds(wait_ns));
+    return ReadStatus::kTimeout;
+  }
+  if (!start()) {  // logs why; the device node may not be back yet
+    lost_ = true;
+    backoff_.failed(monotonicNowNs());
+    return ReadStatus::kTimeout;
+  }
+  backoff_.succeeded();
+  ++faults_.reconnects;
+  spdlog::warn("v4l2: {} reopened ({} so far)", cfg_.device, faults_.reconnects);
+  return ReadStatus::kTimeout;
 }
 
 ReadStatus V4l2CameraSource::read(StereoFrame& out, std::chrono::milliseconds timeout) {
+  if (!streaming_ && lost_) return reconnect(timeout);
   if (!streaming_) {
     error_ = name() + ": not streaming";
     return ReadStatus::kError;
@@ -135,11 +169,7 @@ ReadStatus V4l2CameraSource::read(StereoFrame& out, std::chrono::milliseconds ti
     const auto left =
         std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
     const int w = dev_->waitReadable(static_cast<int>(std::max<int64_t>(0, left.count())));
-    if (w < 0) {
-      error_ = name() + ": device error while waiting (unplugged?)";
-      spdlog::error("v4l2: {}", error_);
-      return ReadStatus::kError;
-    }
+    if (w < 0) return lose(name() + ": device error while waiting (unplugged?)");
     if (w == 0) {
       if (std::chrono::steady_clock::now() >= deadline) return ReadStatus::kTimeout;
       continue;
@@ -149,9 +179,7 @@ ReadStatus V4l2CameraSource::read(StereoFrame& out, std::chrono::milliseconds ti
     b.memory = V4L2_MEMORY_MMAP;
     if (dev_->ioctl(VIDIOC_DQBUF, &b) != 0) {
       if (errno == EAGAIN) continue;
-      error_ = name() + ": VIDIOC_DQBUF: " + std::strerror(errno);
-      spdlog::error("v4l2: {}", error_);
-      return ReadStatus::kError;
+      return lose(name() + ": VIDIOC_DQBUF: " + std::strerror(errno));
     }
     const int64_t host_ns = monotonicNowNs();
     if (b.index >= buffers_.size()) {
@@ -198,11 +226,7 @@ ReadStatus V4l2CameraSource::read(StereoFrame& out, std::chrono::milliseconds ti
       spdlog::warn("v4l2: {} corrupt frame at sequence {} ({} bytes, flags 0x{:x})", cfg_.device, b.sequence,
                    b.bytesused, b.flags);
     }
-    if (dev_->ioctl(VIDIOC_QBUF, &b) != 0) {
-      error_ = name() + ": VIDIOC_QBUF: " + std::strerror(errno);
-      spdlog::error("v4l2: {}", error_);
-      return ReadStatus::kError;
-    }
+    if (dev_->ioctl(VIDIOC_QBUF, &b) != 0) return lose(name() + ": VIDIOC_QBUF: " + std::strerror(errno));
     if (ok) return ReadStatus::kOk;
   }
 }

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "drivers/imu_serial/device_clock.hpp"
+#include "drivers/source/reconnect_backoff.hpp"
 #include "drivers/source/sources.hpp"
 #include "drivers/v4l2/v4l2_device.hpp"
 
@@ -23,12 +24,15 @@ struct V4l2CameraConfig {
   double frame_rate_hz = 15;  ///< requested with VIDIOC_S_PARM, <= 0 = keep
   int n_buffers = 4;          ///< requested mmap buffers (the driver may grant fewer or more)
   DeviceClockConfig clock;    ///< used when the driver's timestamps are not CLOCK_MONOTONIC
+  /// A device that fails while streaming (unplugged, USB reset) is reopened on this schedule.
+  ReconnectBackoffConfig reconnect;
 };
 
 struct V4l2Faults {
   uint64_t frames_dropped = 0;  ///< gaps in the driver's sequence numbers
   uint64_t corrupt_frames = 0;  ///< V4L2_BUF_FLAG_ERROR or too few bytes
   uint64_t timestamp_jumps = 0;
+  uint64_t reconnects = 0;      ///< the device reopened after it failed while streaming
 };
 
 class V4l2CameraSource final : public CameraSource {
@@ -51,6 +55,10 @@ class V4l2CameraSource final : public CameraSource {
 
  private:
   bool fail(const std::string& what);
+  /// The device failed while streaming: closes it and schedules the reopening. kError.
+  ReadStatus lose(const std::string& why);
+  /// While lost: reopens the device when the backoff allows, else waits up to `timeout`.
+  ReadStatus reconnect(std::chrono::milliseconds timeout);
   struct Buffer {
     void* data = nullptr;
     size_t length = 0;
@@ -60,6 +68,8 @@ class V4l2CameraSource final : public CameraSource {
   std::vector<Buffer> buffers_;
   DeviceClock clock_;
   bool streaming_ = false;
+  bool lost_ = false;
+  ReconnectBackoff backoff_;
   bool have_seq_ = false;
   uint32_t last_seq_ = 0;
   uint64_t out_seq_ = 0;

@@ -51,6 +51,32 @@ TEST(DaemonConfig, AllErrorsAtOnceEachNamingFileAndKey) {
   EXPECT_TRUE(anyContains(r.errors, "line 3")) << "bad scalar names its line";
 }
 
+TEST(DaemonConfig, DeadImuAndDeadlineKeysAreReadAndChecked) {
+  const auto ok = parseDaemonConfig(
+      "daemon:\n  processor: imu_dead_reckoning\n  camera: {driver: lcm}\n"
+      "  imu: {driver: lcm, dead_after_ms: 300, dead_policy: exit}\n"
+      "  deadline: {frame_budget_ms: 50, window_frames: 10, release_fraction: 0.5, feature_fraction: 0.5, degrade: false}\n",
+      "ok.yaml");
+  ASSERT_TRUE(ok.ok()) << ok.errors.front();
+  EXPECT_EQ(ok.config.imu.dead_after_ms, 300);
+  EXPECT_EQ(ok.config.imu.dead_policy, "exit");
+  EXPECT_EQ(ok.config.deadline.frame_budget_ms, 50);
+  EXPECT_EQ(ok.config.deadline.window_frames, 10);
+  EXPECT_FALSE(ok.config.deadline.degrade);
+  EXPECT_NE(describe(ok.config).find("daemon.deadline.frame_budget_ms = 50"), std::string::npos);
+  EXPECT_EQ(DaemonConfig{}.deadline.frame_budget_ms, 66);
+  const auto bad = parseDaemonConfig(
+      "daemon:\n  processor: imu_dead_reckoning\n  camera: {driver: lcm}\n"
+      "  imu: {driver: lcm, dead_after_ms: 5, dead_policy: reboot}\n"
+      "  deadline: {frame_budget_ms: 0, window_frames: 2, release_fraction: 1.5, feature_fraction: 0, degrad: 1}\n",
+      "bad.yaml");
+  for (const char* key : {"daemon.imu.dead_after_ms", "daemon.imu.dead_policy", "daemon.deadline.frame_budget_ms",
+                          "daemon.deadline.window_frames", "daemon.deadline.release_fraction",
+                          "daemon.deadline.feature_fraction", "daemon.deadline.degrad: unknown key"}) {
+    EXPECT_TRUE(anyContains(bad.errors, std::string("bad.yaml: ") + key)) << key;
+  }
+}
+
 TEST(DaemonConfig, SyntaxErrorNamesFileAndLine) {
   const auto r = parseDaemonConfig("daemon:\n  camera: [driver\n  x: 1\n", "syn.yaml");
   ASSERT_FALSE(r.ok());

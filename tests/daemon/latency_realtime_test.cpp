@@ -273,7 +273,8 @@ TEST(LatencyRealtime, DaemonFramePathFifoWhenPermittedElseReportedAsRefused) {
   if (permitted) {
     EXPECT_TRUE(d.schedulingOk());
     EXPECT_EQ(p->estimator_policy.load(), SCHED_FIFO);
-    for (const char* name : {"camera: SCHED_FIFO 3", "estimator: SCHED_FIFO 3", "publisher: SCHED_FIFO 3",
+    // Ordered by role: the camera reader above the estimator and its workers above the publisher.
+    for (const char* name : {"camera: SCHED_FIFO 4", "estimator: SCHED_FIFO 3", "publisher: SCHED_FIFO 2",
                              "feature worker: SCHED_FIFO 3", "image worker: SCHED_FIFO 3"}) {
       EXPECT_TRUE(contains(rep, name)) << name;
     }

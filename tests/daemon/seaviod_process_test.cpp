@@ -157,5 +157,22 @@ TEST(Seaviod, LcmFedDaemonPublishesPosesAndStopsOnSigtermWithinOneSecond) {
   std::filesystem::remove(err);
 }
 
+TEST(Seaviod, DeadImuUnderPolicyExitEndsTheProcessWithStatus4) {
+  // An LCM IMU that never sends, with dead_policy exit: the status systemd restarts on.
+  const std::string cfg = tempFile("deadimu.yaml",
+                                   "daemon:\n  processor: imu_dead_reckoning\n  camera: {driver: lcm}\n"
+                                   "  imu: {driver: lcm, dead_after_ms: 200, dead_policy: exit}\n"
+                                   "  lcm: {url: \"udpm://239.255.76.67:7667?ttl=0\"}\n");
+  const std::string err = tempFile("deadimu.err", "");
+  const pid_t pid = spawn({"--config", cfg}, err);
+  ASSERT_GT(pid, 0);
+  EXPECT_EQ(waitExit(pid, 10s), 4) << readFile(err);
+  const std::string text = readFile(err);
+  EXPECT_NE(text.find("no sample for"), std::string::npos) << text;
+  EXPECT_NE(text.find("FAULT (exit 4)"), std::string::npos) << "summary names the fault:\n" << text;
+  std::filesystem::remove(cfg);
+  std::filesystem::remove(err);
+}
+
 }  // namespace
 }  // namespace seaviod_process_test

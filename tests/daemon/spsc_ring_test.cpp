@@ -2,12 +2,39 @@
 // -DSEAVIO_SANITIZE=thread).
 #include <gtest/gtest.h>
 
+#include <dlfcn.h>
+#include <time.h>
+
 #include <atomic>
 #include <chrono>
+#include <optional>
+#include <string>
 #include <thread>
 
 #include "daemon/ring_capacities.hpp"
 #include "daemon/spsc_ring.hpp"
+
+// The wall clock is stepped for this test binary alone: clock_gettime is interposed and adds
+// g_wall_step_ns to CLOCK_REALTIME readings. A timed wait that computes its deadline on the
+// wall clock (the queue library's sem_timedwait) then sees exactly what a step of the system
+// clock at the start of its wait does to it: +1 h waits an hour more, -1 h returns at once.
+// Stepping the real clock would disturb everything else on the machine.
+namespace {
+std::atomic<int64_t> g_wall_step_ns{0};
+}  // namespace
+
+extern "C" int clock_gettime(clockid_t id, struct timespec* ts) noexcept {
+  using Fn = int (*)(clockid_t, struct timespec*);
+  static const Fn real = reinterpret_cast<Fn>(dlsym(RTLD_NEXT, "clock_gettime"));
+  const int r = real(id, ts);
+  const int64_t step = g_wall_step_ns.load(std::memory_order_relaxed);
+  if (r == 0 && step != 0 && (id == CLOCK_REALTIME || id == CLOCK_REALTIME_COARSE)) {
+    const int64_t ns = static_cast<int64_t>(ts->tv_sec) * 1'000'000'000 + ts->tv_nsec + step;
+    ts->tv_sec = static_cast<time_t>(ns / 1'000'000'000);
+    ts->tv_nsec = static_cast<long>(ns % 1'000'000'000);
+  }
+  return r;
+}
 
 namespace seavio::daemon {
 namespace spsc_ring_test {
@@ -61,6 +88,78 @@ TEST(FrameRing, PopWaitForKeepsEveryFrameInOrder) {
     EXPECT_EQ(v, i);
   }
   EXPECT_EQ(ring.dropped(), 0u);
+}
+
+/// Runs `wait` (a 100 ms timed wait expected to time out) on a thread with the wall clock
+/// stepped by `step_ns`; returns how long it took, or nothing if it did not return within
+/// 2 s (then `release` unblocks it).
+template <class Wait, class Release>
+std::optional<std::chrono::nanoseconds> timedWaitUnderStep(int64_t step_ns, Wait wait, Release release) {
+  std::atomic<bool> returned{false};
+  bool got = true;
+  g_wall_step_ns = step_ns;
+  const auto t0 = std::chrono::steady_clock::now();
+  std::thread waiter([&] {
+    got = wait();
+    returned = true;
+  });
+  while (!returned && std::chrono::steady_clock::now() - t0 < 2s) std::this_thread::sleep_for(1ms);
+  const auto took = std::chrono::steady_clock::now() - t0;
+  const bool in_time = returned;
+  if (!in_time) release();
+  waiter.join();
+  g_wall_step_ns = 0;
+  EXPECT_FALSE(got) << "the wait was expected to time out";
+  if (!in_time) return std::nullopt;
+  return took;
+}
+
+TEST(SpscRing, WallClockStepDuringAWaitNeitherStretchesNorCutsIt) {
+  // Sanity: the interposed wall clock does step.
+  timespec stepped{}, real{};
+  g_wall_step_ns = 3'600'000'000'000LL;
+  clock_gettime(CLOCK_REALTIME, &stepped);
+  g_wall_step_ns = 0;
+  clock_gettime(CLOCK_REALTIME, &real);
+  ASSERT_GT(stepped.tv_sec - real.tv_sec, 3500);
+  for (const int64_t step : {3'600'000'000'000LL, -3'600'000'000'000LL}) {
+    SCOPED_TRACE("wall clock step " + std::to_string(step / 1'000'000'000) + " s");
+    SpscRing<int> ring(2);
+    int v = 0;
+    auto took = timedWaitUnderStep(step, [&] { return ring.popWaitFor(v, 100ms); }, [&] { ring.pushOrCountOverflow(1); });
+    ASSERT_TRUE(took) << "pop wait stretched by the step";
+    EXPECT_GE(*took, 95ms) << "pop wait cut short by the step";
+    FrameRing<int> frames(2);
+    took = timedWaitUnderStep(step, [&] { return frames.popNewestWaitFor(v, 100ms); },
+                              [&] { frames.pushDroppingOldestIfFull(1); });
+    ASSERT_TRUE(took) << "frame wait stretched by the step";
+    EXPECT_GE(*took, 95ms) << "frame wait cut short by the step";
+    // A full ring: the producer's wait for room.
+    SpscRing<int> full(1);
+    while (full.pushOrCountOverflow(0)) {
+    }
+    took = timedWaitUnderStep(step, [&] { return full.pushWaitFor(1, 100ms); }, [&] { full.tryPop(v); });
+    ASSERT_TRUE(took) << "push wait stretched by the step";
+    EXPECT_GE(*took, 95ms) << "push wait cut short by the step";
+  }
+}
+
+TEST(SpscRing, PushWaitForWakesWhenTheConsumerMakesRoom) {
+  SpscRing<int> ring(1);
+  while (ring.pushOrCountOverflow(0)) {
+  }
+  std::thread consumer([&] {
+    std::this_thread::sleep_for(30ms);
+    int v = 0;
+    ring.tryPop(v);
+  });
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_TRUE(ring.pushWaitFor(7, 5s));
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, 2s);  // woken, not timed out
+  consumer.join();
+  int v = 0;
+  ASSERT_TRUE(ring.tryPop(v));
+  EXPECT_EQ(v, 7);
 }
 
 TEST(RingCapacities, DefaultsAreBoundedAndNonZero) {

@@ -7,7 +7,9 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <filesystem>
+#include <mutex>
 #include <fstream>
 #include <thread>
 
@@ -216,7 +218,10 @@ TEST(CanImuSource, ReadsSamplesAndCountsBusFaultsOverSeqpacketSocket) {
   EXPECT_EQ(src.faults().can_error_frames, 2u);
   EXPECT_EQ(src.faults().bus_off, 1u);
   EXPECT_EQ(src.faults().partial_packets, 1u);
-  EXPECT_EQ(src.faults().unknown_ids, 1u);
+  // 0x555 belongs to another node: filtered (here in user space: a socketpair has no kernel
+  // CAN filter), not a bus fault.
+  EXPECT_EQ(src.faults().unknown_ids, 0u);
+  EXPECT_EQ(src.faults().foreign_frames, 1u);
   // Silence times out; a closed peer is an error, not a hang.
   EXPECT_EQ(src.read(s, std::chrono::milliseconds(30)), ReadStatus::kTimeout);
   close(sv[1]);
@@ -258,6 +263,115 @@ TEST(CanImuSource, ReplaysCandumpLogAndReportsMalformedLines) {
   EXPECT_EQ(src.faults().malformed_log_lines, 1u);
   EXPECT_EQ(src.faults().bus_off, 1u);
   std::filesystem::remove_all(dir);
+}
+
+TEST(CanIdFilter, ProfileIdsPassAndEveryOtherFrameIsDropped) {
+  // The filters handed to the kernel as CAN_RAW_FILTER, checked with the kernel's matching
+  // rule: no CAN device exists on these machines to let the kernel apply them itself.
+  const CanProfile p = load("generic.yaml");
+  const std::vector<can_filter> f = canIdFilters(p);
+  EXPECT_EQ(f.size(), 3u);  // 0x100 gyro, 0x101 accel (and emit_on), 0x102 time
+  for (canid_t id : {0x100u, 0x101u, 0x102u}) EXPECT_TRUE(canFilterAccepts(f, id)) << std::hex << id;
+  EXPECT_FALSE(canFilterAccepts(f, 0x103));                  // another node
+  EXPECT_FALSE(canFilterAccepts(f, 0x555));
+  EXPECT_FALSE(canFilterAccepts(f, 0x100 | CAN_EFF_FLAG));   // the extended 0x100 is another id
+  EXPECT_FALSE(canFilterAccepts(f, 0x100 | CAN_RTR_FLAG));   // a remote request carries no data
+  CanProfile ext = p;
+  for (CanField* a : {&ext.gyro[0], &ext.gyro[1], &ext.gyro[2]}) {
+    a->id = 0x18FF0100;
+    a->extended = true;
+  }
+  const std::vector<can_filter> g = canIdFilters(ext);
+  EXPECT_TRUE(canFilterAccepts(g, 0x18FF0100 | CAN_EFF_FLAG));
+  EXPECT_FALSE(canFilterAccepts(g, 0x18FF0101 | CAN_EFF_FLAG));
+  EXPECT_FALSE(canFilterAccepts(g, 0x100));  // the standard id the extended one ends in
+}
+
+TEST(CanImuSource, ForeignFramesOnASharedBusNeverReachTheDecoder) {
+  // A socketpair stands in for the bus (no CAN here): the user-space copy of the kernel filter.
+  int sv[2];
+  ASSERT_EQ(socketpair(AF_UNIX, SOCK_SEQPACKET, 0, sv), 0);
+  CanImuSource src(socketConfig(sv[0]));
+  ASSERT_TRUE(src.start()) << src.lastError();
+  const CanProfile p = load("generic.yaml");
+  can_frame foreign{};
+  foreign.can_id = 0x0CF00400 | CAN_EFF_FLAG;  // an engine controller's extended frame
+  foreign.can_dlc = 8;
+  for (const auto& f : encodeCanImu(p, Eigen::Vector3d(0.5, 0, 0), Eigen::Vector3d(0, 0, 9.81), 1'000'000)) {
+    ASSERT_EQ(write(sv[1], &foreign, sizeof foreign), static_cast<ssize_t>(sizeof foreign));
+    ASSERT_EQ(write(sv[1], &f, sizeof f), static_cast<ssize_t>(sizeof f));
+  }
+  ImuSample s;
+  ASSERT_EQ(src.read(s, std::chrono::milliseconds(500)), ReadStatus::kOk);
+  EXPECT_DOUBLE_EQ(s.gyro_rad_s.x(), 0.5);
+  EXPECT_EQ(src.faults().foreign_frames, 3u);
+  EXPECT_EQ(src.faults().unknown_ids, 0u);
+  EXPECT_EQ(src.faults().incomplete_samples, 0u);
+  close(sv[1]);
+  close(sv[0]);
+}
+
+TEST(CanImuSource, ReopensALostBusWithBackoffAndCountsIt) {
+  // The bus opener is injected (a socketpair end per opening): these kernels have no CAN, so
+  // an interface cannot be taken down and brought back for real.
+  const CanProfile p = load("generic.yaml");
+  std::mutex m;
+  std::vector<int> peers;    // the test's end of each opened "bus"
+  std::atomic<bool> up{true};
+  std::atomic<int> attempts{0};
+  CanImuConfig c;
+  c.profile = p;
+  c.interface = "can9";
+  c.clock.init_samples = 1;
+  c.reconnect = {20, 80};
+  c.open_bus = [&](std::string& error) {
+    ++attempts;
+    if (!up) {
+      error = "can9: No such device";
+      return -1;
+    }
+    int sv[2];
+    if (socketpair(AF_UNIX, SOCK_SEQPACKET, 0, sv) != 0) return -1;
+    std::lock_guard l(m);
+    peers.push_back(sv[1]);
+    return sv[0];
+  };
+  auto send = [&](int64_t device_t_ns) {
+    std::lock_guard l(m);
+    for (const auto& f : encodeCanImu(p, Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 0, 9.81), device_t_ns))
+      (void)!write(peers.back(), &f, sizeof f);
+  };
+  CanImuSource src(c);
+  ASSERT_TRUE(src.start()) << src.lastError();
+  ImuSample s;
+  send(1'000'000);
+  ASSERT_EQ(src.read(s, std::chrono::milliseconds(500)), ReadStatus::kOk);
+  // The adapter goes away: the read fails once, then reopening fails with a growing delay.
+  up = false;
+  {
+    std::lock_guard l(m);
+    close(peers.back());
+  }
+  EXPECT_EQ(src.read(s, std::chrono::milliseconds(100)), ReadStatus::kError);
+  const int before = attempts;
+  for (int i = 0; i < 6; ++i) EXPECT_EQ(src.read(s, std::chrono::milliseconds(20)), ReadStatus::kTimeout);
+  // 120 ms of reads with delays 20, 40, 80 ms: at most 3 attempts, never one per read.
+  EXPECT_GE(attempts - before, 1);
+  EXPECT_LE(attempts - before, 3);
+  EXPECT_EQ(src.faults().reconnects, 0u);
+  // It comes back: reopened, counted, samples flow again.
+  up = true;
+  bool reopened = false;
+  for (int i = 0; i < 50 && !reopened; ++i) {
+    src.read(s, std::chrono::milliseconds(20));
+    reopened = src.faults().reconnects == 1;
+  }
+  ASSERT_TRUE(reopened);
+  send(6'000'000);
+  ASSERT_EQ(src.read(s, std::chrono::milliseconds(500)), ReadStatus::kOk);
+  src.stop();
+  std::lock_guard l(m);
+  close(peers.back());  // the earlier ones were closed as the "lost" buses
 }
 
 TEST(CanImuSource, MissingInterfaceAndLogFailClearly) {

@@ -7,6 +7,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <vector>
 
 #include "drivers/lcm/lcm_convert.hpp"
@@ -220,6 +221,36 @@ TEST(LcmLogReplay, RealTimePacingHoldsAnEventUntilItIsDue) {
   EXPECT_EQ(src.read(s, 20ms), ReadStatus::kOk);
   EXPECT_EQ(src.read(s, 20ms), ReadStatus::kTimeout);
   EXPECT_EQ(src.read(s, 20ms), ReadStatus::kTimeout);
+  std::filesystem::remove(path);
+}
+
+TEST(LcmLogReplay, FarFutureEventStampDoesNotStallARealTimeReplay) {
+  // GIVEN a 50 ms log replayed in real time whose sixth event is stamped at the far end of
+  // the clock (a corrupt or foreign time in the recording), the message's stamp too
+  const std::string path = tempPath("farfuture.lcmlog");
+  {
+    LcmLogWriter w(path);
+    for (int i = 0; i < 10; ++i) {
+      ImuSample s = sample(i);
+      int64_t t_us = s.t_ns / 1000;
+      if (i == 5) {
+        s.t_ns = std::numeric_limits<int64_t>::max();
+        t_us = std::numeric_limits<int64_t>::max();
+      }
+      ASSERT_TRUE(w.write("SEAVIO_IMU", toImuMsg(s), t_us));
+    }
+  }
+  LcmImuSource src("file://" + path + "?speed=1", "SEAVIO_IMU");
+  ASSERT_TRUE(src.start());
+  // WHEN it is read to its end
+  const auto t0 = std::chrono::steady_clock::now();
+  const Drained d = drain(src);
+  // THEN every event comes out and the replay ends, in about the log's length, not never
+  EXPECT_TRUE(d.ended);
+  ASSERT_EQ(d.samples.size(), 10u);
+  EXPECT_EQ(d.samples[5].t_ns, std::numeric_limits<int64_t>::max());
+  EXPECT_EQ(d.samples[9].t_ns, sample(9).t_ns);
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, 5s);
   std::filesystem::remove(path);
 }
 

@@ -26,6 +26,7 @@ class FakeV4l2 final : public V4l2Device {
  public:
   // Driver behaviour knobs.
   bool exists = true;
+  bool unplugged = false;  // the device went away while streaming (poll errors, ENODEV)
   bool streaming_cap = true;
   bool yuyv_only = false;
   int row_padding = 0;
@@ -38,7 +39,10 @@ class FakeV4l2 final : public V4l2Device {
   bool streaming = false;
   bool released = false;
 
+  int opens = 0;
+
   bool open(const std::string& path, std::string& error) override {
+    ++opens;
     if (!exists) error = path + ": open failed: No such file or directory";
     return exists;
   }
@@ -68,6 +72,7 @@ class FakeV4l2 final : public V4l2Device {
         if (r->count == 0) {
           released = true;
           mem_.clear();
+          queued_.clear();
           return 0;
         }
         r->count = std::min(r->count, max_buffers);
@@ -91,6 +96,7 @@ class FakeV4l2 final : public V4l2Device {
         return 0;
       }
       case VIDIOC_DQBUF: {
+        if (unplugged) return errno = ENODEV, -1;
         if (!streaming || queued_.empty() || script.empty()) return errno = EAGAIN, -1;
         const FakeFrame f = script.front();
         script.pop_front();
@@ -110,6 +116,7 @@ class FakeV4l2 final : public V4l2Device {
         return 0;
       case VIDIOC_STREAMOFF:
         streaming = false;
+        queued_.clear();  // the spec: STREAMOFF removes every buffer from both queues
         return 0;
       default:
         return errno = ENOTTY, -1;
@@ -120,7 +127,10 @@ class FakeV4l2 final : public V4l2Device {
     return i < mem_.size() && length <= mem_[i].size() ? mem_[i].data() : nullptr;
   }
   void unmap(void*, size_t) override {}
-  int waitReadable(int) override { return streaming && !script.empty() && !queued_.empty() ? 1 : 0; }
+  int waitReadable(int) override {
+    if (unplugged) return -1;
+    return streaming && !script.empty() && !queued_.empty() ? 1 : 0;
+  }
   void close() override {}
 
   /// The image of frame `seq`: luma = x + 2y + seq; chroma bytes 0x80; padding 0xEE.
@@ -216,6 +226,43 @@ TEST(V4l2CameraSource, CountsDroppedAndCorruptFrames) {
   EXPECT_EQ(seen, (std::vector<uint64_t>{0, 1000, 4000, 7000}));
   EXPECT_EQ(src.faults().frames_dropped, 2u);  // sequences 2 and 3 never arrived
   EXPECT_EQ(src.faults().corrupt_frames, 2u);  // error flag, short bytesused
+}
+
+TEST(V4l2CameraSource, ReopensADeviceThatDisappearsAndComesBack) {
+  // The fake plays a USB camera unplugged mid-stream and plugged back in: no /dev/video
+  // exists on these machines to unplug.
+  auto dev = std::make_unique<FakeV4l2>();
+  FakeV4l2* fake = dev.get();
+  for (uint32_t i = 0; i < 3; ++i) fake->script.push_back({i, 1'000'000'000 + i * 66'000'000LL});
+  V4l2CameraConfig c = cfg();
+  c.reconnect = {20, 80};
+  V4l2CameraSource src(c, std::move(dev));
+  ASSERT_TRUE(src.start()) << src.lastError();
+  StereoFrame f;
+  for (int i = 0; i < 3; ++i) ASSERT_EQ(src.read(f, std::chrono::milliseconds(20)), ReadStatus::kOk);
+  // Unplugged: the read fails once and says so; the node is gone, so reopening fails, with a
+  // growing delay (20, 40, 80 ms) rather than on every read.
+  fake->unplugged = true;
+  fake->exists = false;
+  EXPECT_EQ(src.read(f, std::chrono::milliseconds(20)), ReadStatus::kError);
+  EXPECT_NE(src.lastError().find("/dev/video-fake"), std::string::npos) << src.lastError();
+  const int opens = fake->opens;
+  for (int i = 0; i < 6; ++i) EXPECT_EQ(src.read(f, std::chrono::milliseconds(20)), ReadStatus::kTimeout);
+  EXPECT_GE(fake->opens - opens, 1);
+  EXPECT_LE(fake->opens - opens, 3);
+  EXPECT_EQ(src.faults().reconnects, 0u);
+  // Plugged back in: a new driver session whose sequence starts again at 0.
+  fake->unplugged = false;
+  fake->exists = true;
+  fake->script = {{0, 2'000'000'000}, {1, 2'066'000'000}};
+  ReadStatus st = ReadStatus::kTimeout;
+  for (int i = 0; i < 50 && st != ReadStatus::kOk; ++i) st = src.read(f, std::chrono::milliseconds(20));
+  ASSERT_EQ(st, ReadStatus::kOk);
+  expectImage(f, 0);
+  EXPECT_EQ(src.faults().reconnects, 1u);
+  EXPECT_EQ(src.faults().frames_dropped, 0u);  // the restarted sequence is not a gap
+  ASSERT_EQ(src.read(f, std::chrono::milliseconds(20)), ReadStatus::kOk);
+  expectImage(f, 1);
 }
 
 TEST(V4l2CameraSource, MapsUnknownClockTimestampsToMonotonic) {
