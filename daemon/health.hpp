@@ -55,6 +55,9 @@ struct HealthCounters {
   /// (OdometryResult::coasting; countImuOnly). Not on LCM: status_t keeps its version.
   std::atomic<uint64_t> imu_only_leak_corrected{0};
   std::atomic<uint64_t> imu_only_covariance_only{0};
+  /// Of the IMU-only frames: by the check that refused the visual estimate (indexed by
+  /// Refusal; OdometryResult::refusal). In the summary; on LCM as the pose's FLAG_REFUSED_* bits.
+  std::array<std::atomic<uint64_t>, kRefusalKinds> imu_only_refused{};
   std::atomic<uint64_t> camera_source_errors{0};
   std::atomic<uint64_t> imu_source_errors{0};
   // Global step on its own thread (daemon.global_thread). Every request the estimator makes
@@ -87,6 +90,7 @@ inline void countImuOnly(HealthCounters& h, const OdometryResult& r) {
   h.imu_only_frames++;
   if (r.coasting == CoastingCorrection::kAgreedLeak) h.imu_only_leak_corrected++;
   if (r.coasting == CoastingCorrection::kCovarianceOnly) h.imu_only_covariance_only++;
+  h.imu_only_refused[static_cast<std::size_t>(r.refusal.check)]++;
 }
 
 /// Faults a driver counts itself below the CameraSource/ImuSource interface (issue 9):
