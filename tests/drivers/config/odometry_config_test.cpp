@@ -132,8 +132,6 @@ TEST(OdometryConfigBadInput, NonScalarKeyIsAnErrorNotAnException) {
   EXPECT_EQ(errors.size(), 1u);
 }
 
-}  // namespace
-}  // namespace seavio::config
 
 TEST(OdometryConfig, TheAuvProfileIsTheBuiltInDefaultsAndTheCarProfileOnlyChangesTheRig) {
   // `seavio run` without --config is `--config config/profiles/auv-downward.yaml`.
@@ -149,3 +147,6 @@ TEST(OdometryConfig, TheAuvProfileIsTheBuiltInDefaultsAndTheCarProfileOnlyChange
   EXPECT_EQ(car.rig.scene_min_depth_m, 0.0);
   EXPECT_EQ(car.rig.scene_max_depth_m, 0.0);
 }
+
+}  // namespace
+}  // namespace seavio::config
