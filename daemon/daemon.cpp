@@ -737,7 +737,17 @@ std::string Daemon::summary() const {
     << "; out-of-order " << m.out_of_order << ", duplicates " << m.duplicates << "\n"
     << "  poses published " << health_.poses_published << ", dropped " << health_.poses_dropped
     << ", IMU-only " << m.imu_only_frames << " (agreed leak " << health_.imu_only_leak_corrected
-    << ", covariance only " << health_.imu_only_covariance_only << ")\n"
+    << ", covariance only " << health_.imu_only_covariance_only << "; refused by";
+  std::array<uint64_t, kRefusalKinds> refused{};
+  for (int k = 0; k < kRefusalKinds; ++k) refused[static_cast<std::size_t>(k)] = health_.imu_only_refused[static_cast<std::size_t>(k)];
+  for (int k = 1; k < kRefusalKinds; ++k)
+    o << " " << refusalName(static_cast<Refusal>(k)) << " " << refused[static_cast<std::size_t>(k)];
+  o << ")\n";
+  if (const std::string w = coastingWarning(static_cast<uint64_t>(m.imu_only_frames),
+                                            static_cast<uint64_t>(m.frames_processed), refused);
+      !w.empty())
+    o << "  warning: " << w << "\n";
+  o
     << "  failures: processing " << m.processing_failures << ", publish " << m.publish_failures
     << ", camera source " << health_.camera_source_errors << ", IMU source "
     << health_.imu_source_errors << "\n"

@@ -62,6 +62,9 @@ struct HealthCounters {
   std::atomic<bool> imu_dead{false};            ///< no IMU sample for daemon.imu.dead_after_ms
   std::atomic<uint64_t> imu_dead_episodes{0};   ///< times imu_dead was raised
   std::atomic<int64_t> last_imu_recv_ns{0};     ///< daemon clock [ns], 0 = never
+  /// Of the IMU-only frames: by the check that refused the visual estimate (indexed by
+  /// Refusal; OdometryResult::refusal). In the summary; on LCM as the pose's FLAG_REFUSED_* bits.
+  std::array<std::atomic<uint64_t>, kRefusalKinds> imu_only_refused{};
   std::atomic<uint64_t> camera_source_errors{0};
   std::atomic<uint64_t> imu_source_errors{0};
   // Global step on its own thread (daemon.global_thread). Every request the estimator makes
@@ -99,6 +102,7 @@ inline void countImuOnly(HealthCounters& h, const OdometryResult& r) {
   h.imu_only_frames++;
   if (r.coasting == CoastingCorrection::kAgreedLeak) h.imu_only_leak_corrected++;
   if (r.coasting == CoastingCorrection::kCovarianceOnly) h.imu_only_covariance_only++;
+  h.imu_only_refused[static_cast<std::size_t>(r.refusal.check)]++;
 }
 
 /// Faults a driver counts itself below the CameraSource/ImuSource interface:

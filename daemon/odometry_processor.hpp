@@ -21,6 +21,7 @@
 #include "core/common/stage_timer.hpp"
 #include "core/odometry/odometry.hpp"
 #include "daemon/frame_processor.hpp"
+#include "daemon/refusal_log.hpp"
 #include "daemon/worker_pool.hpp"
 
 namespace seavio::daemon {
@@ -42,11 +43,18 @@ class OdometryProcessor : public FrameProcessor {
   }
 
   /// Output identical for any `feature_threads`: only the order of independent work changes.
+  /// A refused frame is logged, rate-limited (refusal_log.hpp).
   OdometryResult process(const StereoFrame& frame, std::span<const ImuSample> imu) override {
-    if (!pool_) return odo_.process(frame, imu);
-    // Into the buffers of an earlier frame, which track() hands back.
-    extractParallel(frame, imu, spare_);
-    return odo_.track(std::move(spare_), imu);
+    OdometryResult r;
+    if (!pool_) {
+      r = odo_.process(frame, imu);
+    } else {
+      // Into the buffers of an earlier frame, which track() hands back.
+      extractParallel(frame, imu, spare_);
+      r = odo_.track(std::move(spare_), imu);
+    }
+    refusal_log_.add(r);
+    return r;
   }
   std::string name() const override { return "stereo-odometry"; }
   void setLoadShedding(const odometry::LoadShedding& shed) override { odo_.setLoadShedding(shed); }
@@ -135,6 +143,7 @@ class OdometryProcessor : public FrameProcessor {
   odometry::FrontendWorkspace ws_;    ///< rectified images and filter buffers, reused across frames
   odometry::FrameFeatures spare_;     ///< an earlier frame's buffers, refilled each frame
   std::size_t parallel_frames_ = 0;
+  RefusalLog refusal_log_;
   const NowNsFn now_ = steadyNowNs;   ///< stage times of the parallel path
 };
 

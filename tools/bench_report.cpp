@@ -472,7 +472,7 @@ std::vector<StageRow> runStageBench(const StageBenchOptions& o) {
   std::string error;
   auto rectifier = camera::StereoRectifier::create(ds.calibration, &error);
   if (!rectifier) throw drivers::InputError(ds.root + ": calibration unusable: " + error);
-  const odometry::Frontend frontend(std::move(*rectifier), p.features, p.stereo, p.illumination, p.snow);
+  const odometry::Frontend frontend(std::move(*rectifier), p.features, odometry::withSceneDepth(p.stereo, p.rig), p.illumination, p.snow);
   std::vector<double> rect, surf1, surf2, stereo, n_features;
   cv::Mat left, right;
   for (std::size_t i = 0; i < global.results.size(); ++i) {

@@ -66,7 +66,7 @@ std::vector<eval::TimedPose> runPnpBaseline(const drivers::Dataset& ds, std::siz
   params.features.type = features::DetectorType::kSift;
   params.features.controller = features::defaultControllerParams(features::DetectorType::kSift, 500);
   params.features.max_features = 500;
-  const odometry::Frontend frontend(std::move(*rectifier), params.features, params.stereo, params.illumination,
+  const odometry::Frontend frontend(std::move(*rectifier), params.features, odometry::withSceneDepth(params.stereo, params.rig), params.illumination,
                                     params.snow);
   odometry::PnpBaselineParams bp;
   bp.threshold = params.features.controller.initial_threshold;
@@ -143,6 +143,11 @@ int run(const RunOptions& o) {
     }
     stats.setImuBiases(seq.gyro_bias_rad_s, seq.accel_bias_m_s2);
     if (!o.stats.empty()) stats.writeJson(o.stats);
+    const LossCounts losses = stats.losses();
+    if (const std::string w = coastingWarning(static_cast<uint64_t>(losses.imu_only_frames), seq.results.size(),
+                                              losses.refused_by);
+        !w.empty())
+      spdlog::warn("run: {}", w);
   }
   drivers::writeTum(o.out, trajectory);
   spdlog::info("run: wrote {} poses to {}", trajectory.size(), o.out);
@@ -155,7 +160,9 @@ const RegisterCommand kRegister("run", [](CLI::App& app) {
   sub->add_option("--dataset", opts->dataset, "Dataset folder (EuRoC/ASL or KITTI odometry); required");
   sub->add_option("--mode", opts->mode, "local | global | imu (dead reckoning only) | baseline (SIFT + PnP, no IMU)");
   sub->add_flag("--print-config", opts->print_config, "Print the effective odometry configuration as YAML and exit");
-  sub->add_option("--config", opts->config, "Tuning YAML (default: built-in defaults)");
+  sub->add_option("--config", opts->config,
+                  "Rig profile or tuning YAML (config/profiles/*.yaml, config/seavio.yaml), its keys over the built-in "
+                  "defaults (those of config/profiles/auv-downward.yaml)");
   sub->add_option("--calib", opts->kalibr, "Kalibr camchain-imucam.yaml overriding the dataset's calibration");
   sub->add_option("--out", opts->out, "Output TUM trajectory");
   sub->add_option("--stats", opts->stats, "Per-frame statistics as JSON");

@@ -41,6 +41,7 @@ LossCounts countLosses(const std::vector<OdometryResult>& frames) {
       const auto kind = std::min(static_cast<std::size_t>(r.coasting), n.frames_by.size() - 1);
       ++n.imu_only_frames;
       ++n.frames_by[kind];
+      ++n.refused_by[static_cast<std::size_t>(r.refusal.check)];
       if (!in_outage) {
         ++n.outages;
         ++n.outages_by[kind];
@@ -129,6 +130,10 @@ void RunStats::printTable(std::ostream& os, PaperVariant variant) const {
       if (losses.frames(c) > 0)
         os << fmt::format(" {} {} ({})", coastingName(c), losses.frames(c), losses.outagesOf(c));
     }
+    os << "; refused by";
+    for (int k = 1; k < kRefusalKinds; ++k)
+      if (losses.refused_by[static_cast<std::size_t>(k)] > 0)
+        os << fmt::format(" {} {}", refusalName(static_cast<Refusal>(k)), losses.refused_by[static_cast<std::size_t>(k)]);
   }
   os << "\n\n";
 }
@@ -153,7 +158,11 @@ void RunStats::writeJson(const std::string& path) const {
     os << fmt::format(", \"{}\": {{\"frames\": {}, \"outages\": {}}}", coastingName(c), losses.frames(c),
                       losses.outagesOf(c));
   }
-  os << "},\n  \"memory\": [";
+  os << ", \"refused\": {";
+  for (int k = 1; k < kRefusalKinds; ++k)
+    os << (k > 1 ? ", " : "")
+       << fmt::format("\"{}\": {}", refusalName(static_cast<Refusal>(k)), losses.refused_by[static_cast<std::size_t>(k)]);
+  os << "}},\n  \"memory\": [";
   for (std::size_t i = 0; i < memory_.size(); ++i)
     os << (i ? "," : "") << fmt::format("\n    {{\"frames\": {}, \"rss_mb\": {:.2f}}}", memory_[i].frames, memory_[i].rss_mb);
   os << fmt::format("\n  ],\n  \"rss_growth_mb_per_1000_frames_second_half\": {:.4f},",
@@ -175,6 +184,9 @@ void RunStats::writeJson(const std::string& path) const {
               f.times.icp_ms, f.times.total_ms);
     // What corrected an IMU-only frame's coasting ("none" on visual frames).
     os << fmt::format(", \"coasting\": \"{}\"", coastingName(f.coasting));
+    // Which check refused the visual estimate, what it measured and the limit it missed.
+    os << fmt::format(", \"refusal\": \"{}\", \"refusal_value\": {:.4g}, \"refusal_limit\": {:.4g}",
+                      refusalName(f.refusal.check), f.refusal.value, f.refusal.limit);
     os << fmt::format(", \"guided_tracks\": {}, \"patch_ms\": {:.3f}", f.quality.guided_tracks, f.times.patch_ms);
     os << fmt::format(", \"stereo_completed\": {}", f.quality.stereo_completed);
     // The position sigma the odometry claims (global mode sizes its revisit search by it).

@@ -29,6 +29,7 @@ struct LossCounts {
   int outages = 0;
   std::array<int, kKinds> frames_by{};   ///< indexed by CoastingCorrection
   std::array<int, kKinds> outages_by{};  ///< indexed by CoastingCorrection
+  std::array<int, kRefusalKinds> refused_by{};  ///< IMU-only frames by the check that refused them
   int frames(CoastingCorrection c) const { return frames_by[static_cast<std::size_t>(c)]; }
   int outagesOf(CoastingCorrection c) const { return outages_by[static_cast<std::size_t>(c)]; }
 };

@@ -7,6 +7,8 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
+#include "core/common/refusal.hpp"
+
 namespace seavio {
 
 /// One stereo pair as it leaves the cameras: 8-bit grey, unrectified.
@@ -97,6 +99,8 @@ struct OdometryResult {
   PoseSource source = PoseSource::kInit;
   /// kImuOnly frames: how the coasting was corrected; kNone otherwise.
   CoastingCorrection coasting = CoastingCorrection::kNone;
+  /// kImuOnly frames: the check that refused the visual estimate and by how much.
+  RefusalFigures refusal;
   Quality quality;
   StageTimes times;
 };

@@ -33,7 +33,8 @@ int completeStereo(const std::vector<cv::KeyPoint>& left, const cv::Mat& left_im
   }
   const auto row = [&](int i) { return points[static_cast<std::size_t>(i)].uv_left.y(); };
   std::sort(ws.by_row.begin(), ws.by_row.end(), [&](int a, int b) { return row(a) < row(b); });
-  const double d_min = rig.disparityAt(stereo.max_range_m), d_max = rig.disparityAt(stereo.min_range_m);
+  const DisparityWindow window = disparityWindow(rig, stereo);
+  const double d_min = window.min_px, d_max = window.max_px;
   const float reach = static_cast<float>(p.max_neighbour_distance_px);
   const float separation2 = static_cast<float>(p.min_separation_px * p.min_separation_px);
   const float offsets[3] = {0.f, -static_cast<float>(p.start_spacing_px), static_cast<float>(p.start_spacing_px)};

@@ -27,7 +27,7 @@ struct StereoCompletionWorkspace {
 
 /// Appends to `points` a StereoPoint (right_index -1) for every left keypoint not yet in one
 /// whose patch of `left_image` aligns in `right_image` on its row, at a disparity inside the
-/// stereo range (`stereo.min_range_m`, `max_range_m`); `stereo.completion` holds the rules.
+/// stereo range (disparityWindow: the rig profile's depth band); `stereo.completion` holds the rules.
 /// Returns how many it added; 0 when disabled, when the images are missing, or when the
 /// descriptors already paired `max_matched_share` of the left features.
 int completeStereo(const std::vector<cv::KeyPoint>& left, const cv::Mat& left_image, const cv::Mat& right_image,

@@ -41,8 +41,8 @@ void matchStereo(const std::vector<cv::KeyPoint>& left, const cv::Mat& left_desc
                  std::vector<StereoPoint>& out) {
   out.clear();
   if (left.empty() || right.empty() || rig.f_px <= 0 || rig.baseline_m <= 0) return;
-  const double d_min = rig.disparityAt(params.max_range_m);
-  const double d_max = rig.disparityAt(params.min_range_m);
+  const DisparityWindow window = disparityWindow(rig, params);
+  const double d_min = window.min_px, d_max = window.max_px;
   const float max_dist = descriptorThreshold(left_descriptors, params.max_descriptor_distance);
   const float row_tol = static_cast<float>(params.max_row_difference_px);
 

@@ -32,14 +32,30 @@ struct StereoCompletionParams {
 };
 
 struct StereoMatchParams {
-  double min_range_m = 1.5;          ///< nearest floor distance expected along the optical axis [m]
-  double max_range_m = 12.0;         ///< farthest [m]; with min_range sets the disparity window
+  /// Nearest scene along the optical axis [m]; with max_range_m sets the disparity window.
+  /// 0 = the nearest the rig triangulates (disparity = the image width). A profile's depth
+  /// band (core/odometry/rig_profile.hpp) narrows it.
+  double min_range_m = 0.0;
+  double max_range_m = 0.0;          ///< farthest [m]; 0 = the farthest it triangulates (1 px)
   double max_row_difference_px = 1.0;  ///< rectified rows agree to this [px]
   float max_descriptor_distance = 0.35f;  ///< L2 (normalised float) or bits/256 scaled for binary
   float ratio = 0.8f;                ///< Lowe ratio test, best / second best
   bool left_right_check = true;      ///< keep only mutual best matches
   StereoCompletionParams completion;
 };
+
+/// The disparity search window [px] the depth band gives
+/// through the rig's baseline and focal length; an unset bound is the rig's own limit.
+struct DisparityWindow {
+  double min_px = 1.0;
+  double max_px = 0.0;
+};
+inline DisparityWindow disparityWindow(const camera::RectifiedRig& rig, const StereoMatchParams& params) {
+  DisparityWindow w;
+  w.min_px = params.max_range_m > 0 ? rig.disparityAt(params.max_range_m) : 1.0;
+  w.max_px = params.min_range_m > 0 ? rig.disparityAt(params.min_range_m) : static_cast<double>(rig.width);
+  return w;
+}
 
 /// One feature seen in both rectified images of a pair, with its 3D point in R0.
 struct StereoPoint {

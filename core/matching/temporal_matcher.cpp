@@ -66,8 +66,8 @@ double predictionWindowPx(const camera::RectifiedRig& rig, double z_m, const Eig
   const double sigma_rot = std::sqrt(std::max(0.0, covariance.topLeftCorner<3, 3>().trace()));
   const double sigma_trans = std::sqrt(std::max(0.0, covariance.bottomRightCorner<3, 3>().trace()));
   const double sigma_px = rig.f_px * (sigma_rot + sigma_trans / std::max(z_m, 0.1));
-  return std::clamp(params.sigma_multiplier * sigma_px + params.min_window_px, params.min_window_px,
-                    params.max_window_px);
+  return std::min(params.sigma_multiplier * sigma_px + params.min_window_px,
+                  std::max(params.min_window_px, std::hypot(rig.width, rig.height)));
 }
 
 std::vector<TemporalMatch> matchTemporal(const StereoFeatures& prev, const StereoFeatures& curr,

@@ -16,9 +16,11 @@ namespace seavio::matching {
 
 struct TemporalMatchParams {
   bool use_prediction = true;        ///< false = search the whole image (for comparison)
-  double sigma_multiplier = 3.0;     ///< window half-size = this * predicted pixel sigma + min
+  /// Window half-size = this * predicted pixel sigma + min, the sigma being the predicted
+  /// motion's covariance projected into the image at the point's depth; no cap but the image
+  /// itself, so a fast rig's wide windows are searched, not cut.
+  double sigma_multiplier = 3.0;
   double min_window_px = 6.0;        ///< [px] floor on the half-size (feature localisation)
-  double max_window_px = 120.0;      ///< [px] cap; beyond it the prediction is not trusted
   float max_descriptor_distance = 0.35f;
   float ratio = 0.85f;
 };

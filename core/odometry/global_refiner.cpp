@@ -261,14 +261,14 @@ std::vector<matching::TemporalMatch> GlobalRefiner::matchRevisit(const RevisitFr
   cov.topLeftCorner<3, 3>() = pose_covariance.topLeftCorner<3, 3>() + Eigen::Matrix3d::Identity() * 1e-6;
   cov.bottomRightCorner<3, 3>() = Eigen::Matrix3d::Identity() * (drift_var / 3.0);
   const Eigen::Isometry3d guess = old.T_W_R0.inverse() * T_W_R0;
-  // A drift wider than the matcher's largest window (at the old frame's mean depth) cannot be
-  // searched around the prediction: match over the whole image and let RANSAC decide.
+  // A drift whose window (at the old frame's mean depth) spans the image is no prediction:
+  // match over the whole image and let RANSAC decide.
   matching::TemporalMatchParams match_params = params_.temporal;
   double mean_depth = 0;
   for (const auto& p : old_features.points) mean_depth += p.p_R0.z();
   mean_depth = std::max(mean_depth / static_cast<double>(old_features.points.size()), 0.1);
   const double sigma_px = rig_.f_px * (std::sqrt(cov.topLeftCorner<3, 3>().trace()) + std::sqrt(drift_var) / mean_depth);
-  if (match_params.sigma_multiplier * sigma_px + match_params.min_window_px > match_params.max_window_px)
+  if (match_params.sigma_multiplier * sigma_px + match_params.min_window_px > std::hypot(rig_.width, rig_.height))
     match_params.use_prediction = false;
   return matching::matchTemporal(old_features, current, rig_, guess, cov, match_params);
 }

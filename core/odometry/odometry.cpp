@@ -83,6 +83,20 @@ void buildPointIndex(const matching::StereoFeatures& features, std::vector<Eigen
   index.build(scratch);
 }
 
+/// Why no RANSAC attempt gave a visual estimate: the first stage that left fewer candidates
+/// than the smallest accepted inlier count `need` (the rescue's when it runs), else RANSAC.
+RefusalFigures visionRefusal(std::size_t stereo_points, std::size_t temporal_matches,
+                             const geometry::RansacResult& ransac, int min_inliers, int need) {
+  const auto count = [](std::size_t n) { return static_cast<double>(n); };
+  if (static_cast<int>(stereo_points) < need) return {Refusal::kStereoPoints, count(stereo_points), double(need)};
+  if (static_cast<int>(temporal_matches) < need)
+    return {Refusal::kTemporalMatches, count(temporal_matches), double(need)};
+  if (ransac.status == geometry::RansacStatus::kOk && static_cast<int>(ransac.inliers.size()) >= min_inliers)
+    return {Refusal::kNonFinite, 0, 0};  // enough inliers: only a non-finite pose fails
+  return {Refusal::kInliers, ransac.status == geometry::RansacStatus::kOk ? count(ransac.inliers.size()) : 0.0,
+          double(min_inliers)};
+}
+
 }  // namespace
 
 GlobalRefinerParams globalRefinerParams(const OdometryParams& p) {
@@ -110,7 +124,8 @@ GlobalRefinerParams globalRefinerParams(const OdometryParams& p) {
 
 Odometry::Odometry(camera::StereoRectifier rectifier, const imu::ImuNoise& imu_noise, const OdometryParams& params,
                    NowNsFn now)
-    : frontend_(std::move(rectifier), params.features, params.stereo, params.illumination, params.snow, params.ripple_notch),
+    : frontend_(std::move(rectifier), params.features, withSceneDepth(params.stereo, params.rig), params.illumination,
+                params.snow, params.ripple_notch),
       imu_noise_(imu_noise),
       params_(params),
       now_(std::move(now)),
@@ -445,6 +460,12 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
       vision_ok = rescue();
     }
   }
+  RefusalFigures refusal;
+  if (!vision_ok) {
+    const int need = params_.rescue_inlier_threshold_px > 0 ? std::min(params_.min_inliers, params_.rescue_min_inliers)
+                                                            : params_.min_inliers;
+    refusal = visionRefusal(frame.stereo.points.size(), temporal.size(), ransac, params_.min_inliers, need);
+  }
   if (vision_ok && params_.patch_refinement) {
     r.times.tensor_ms += timer.lap_ms();
     const cv::Mat& ref_left = on_keyframe ? keyframe_->left_image : prev.features.left_image;
@@ -584,9 +605,14 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
 
   T_W_R0 = orthonormalized(T_W_R0);
   Eigen::Isometry3d T_W_B = orthonormalized(T_W_R0 * T_B_R0.inverse());
-  if (vision_ok && dt_s > 0 &&
-      (T_W_B.translation() - map_shift_W - state_.T_W_B.translation()).norm() / dt_s > params_.max_speed_m_s) {
-    vision_ok = false;  // a jump: refuse it rather than publish it
+  if (vision_ok && dt_s > 0) {
+    // Faster than the rig ever moves (its profile, with a margin): a wrong solution.
+    const double speed_m_s = (T_W_B.translation() - map_shift_W - state_.T_W_B.translation()).norm() / dt_s;
+    const double limit_m_s = params_.rig.max_speed_m_s * params_.speed_margin;
+    if (speed_m_s > limit_m_s) {
+      vision_ok = false;  // a jump: refuse it rather than publish it
+      refusal = {Refusal::kSpeed, speed_m_s, limit_m_s};
+    }
   }
 
   // The state at the start of the interval, for the gravity tilt observation below.
@@ -731,6 +757,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     T_W_R0 = T_W_B * T_B_R0;
     r.source = PoseSource::kImuOnly;
     r.coasting = have_imu ? coasting_correction_ : CoastingCorrection::kNoImu;
+    r.refusal = refusal;
     handover_.reset();
     if (coasting_leak_applied_ && have_imu) {
       // The corrected coasting leaves the velocity without the fix's lag, so the next
@@ -765,6 +792,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     T_W_R0 = prev.T_W_R0;
     r.source = PoseSource::kImuOnly;
     r.coasting = CoastingCorrection::kHeld;
+    r.refusal = {Refusal::kNonFinite, 0, 0};
     handover_.reset();
     prediction_innovation_.reset();
     coasting_leak_.reset();

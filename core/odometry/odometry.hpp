@@ -27,6 +27,7 @@
 #include "core/matching/patch_alignment.hpp"
 #include "core/odometry/motion_refinement.hpp"
 #include "core/odometry/prediction_innovation.hpp"
+#include "core/odometry/rig_profile.hpp"
 
 namespace seavio::odometry {
 
@@ -191,7 +192,10 @@ struct OdometryParams {
   /// only the coasting covariance grows by a leak of their size. Off: the bare prediction.
   bool coasting_leak_correction = true;
   imu::LeakParams coasting_leak;
-  double max_speed_m_s = 10.0;               ///< a visual fix faster than this is rejected as a jump
+  /// The vehicle and its scene (rig_profile.hpp): the stereo depth band and the speed bound.
+  RigProfile rig;
+  /// A visual step faster than rig.max_speed_m_s times this is refused as a jump.
+  double speed_margin = 2.0;
   /// Gravity as the tilt reference: after each visual frame the roll and pitch of the chain
   /// (pose, keyframe, previous frame) are turned towards the accelerometer's gravity, less the
   /// acceleration vision measured, with this time constant [s]. Visual rotation errors add up

@@ -219,7 +219,12 @@ void visit(V& v, odometry::OdometryParams& p) {
   v.value("gyro_bias_gravity_window_min_frames", p.gyro_bias_gravity_window_min_frames, 1, 1000);
   v.value("gyro_bias_gravity_gain", p.gyro_bias_gravity_gain, 0, 1);
   v.value("gyro_bias_gravity_max_turn_rad", p.gyro_bias_gravity_max_turn_rad, 0, 3.2);
-  v.value("max_speed_m_s", p.max_speed_m_s, 0.01, 1000);
+  v.section("rig", [&] {
+    v.value("max_speed_m_s", p.rig.max_speed_m_s, 0.01, 1000);
+    v.value("scene_min_depth_m", p.rig.scene_min_depth_m, 0, 10000);
+    v.value("scene_max_depth_m", p.rig.scene_max_depth_m, 0, 1e6);
+  });
+  v.value("speed_margin", p.speed_margin, 1, 100);
   v.value("gravity_tilt_time_constant_s", p.gravity_tilt_time_constant_s, 0, 1e6);
   v.section("accel_bias", [&] {
     v.flag("enabled", p.accel_bias_estimation);
@@ -304,8 +309,6 @@ void visit(V& v, odometry::OdometryParams& p) {
   });
   v.section("features", [&] { visitFeatures(v, p.features); });
   v.section("stereo", [&] {
-    v.value("min_range_m", p.stereo.min_range_m, 0.05, 1000);
-    v.value("max_range_m", p.stereo.max_range_m, 0.05, 10000);
     v.value("max_row_difference_px", p.stereo.max_row_difference_px, 0, 50);
     v.value("max_descriptor_distance", p.stereo.max_descriptor_distance, 0, 2);
     v.value("ratio", p.stereo.ratio, 0, 1);
@@ -328,7 +331,6 @@ void visit(V& v, odometry::OdometryParams& p) {
     v.flag("use_prediction", p.temporal.use_prediction);
     v.value("sigma_multiplier", p.temporal.sigma_multiplier, 0, 100);
     v.value("min_window_px", p.temporal.min_window_px, 0, 10000);
-    v.value("max_window_px", p.temporal.max_window_px, 0, 10000);
     v.value("max_descriptor_distance", p.temporal.max_descriptor_distance, 0, 2);
     v.value("ratio", p.temporal.ratio, 0, 1);
   });

@@ -78,16 +78,19 @@ TEST(StereoMatcher, MatchesAlongRowsAndTriangulates) {
 TEST(StereoMatcher, RespectsTheDisparityWindow) {
   std::mt19937 rng(4);
   const auto rig = makeRig();
-  // A point at 20 m is outside the default 1.5-12 m range.
+  // A point at 20 m is outside a 1.5-12 m depth band, inside the rig's own range (the default).
   const Eigen::Vector3d p(0.1, 0.2, 20.0);
   const auto l = rig.project(p, 0), r = rig.project(p, 1);
   std::vector<cv::KeyPoint> left{cv::KeyPoint(float(l.x()), float(l.y()), 10.f)};
   std::vector<cv::KeyPoint> right{cv::KeyPoint(float(r.x()), float(r.y()), 10.f)};
   const cv::Mat d = randomDescriptors(1, rng);
-  EXPECT_TRUE(matchStereo(left, d, right, d, rig, StereoMatchParams{}).empty());
-  StereoMatchParams wide;
-  wide.max_range_m = 30;
-  EXPECT_EQ(matchStereo(left, d, right, d, rig, wide).size(), 1u);
+  StereoMatchParams band;
+  band.min_range_m = 1.5;
+  band.max_range_m = 12;
+  EXPECT_TRUE(matchStereo(left, d, right, d, rig, band).empty());
+  band.max_range_m = 30;
+  EXPECT_EQ(matchStereo(left, d, right, d, rig, band).size(), 1u);
+  EXPECT_EQ(matchStereo(left, d, right, d, rig, StereoMatchParams{}).size(), 1u);
 }
 
 struct TwoFrames {
@@ -176,7 +179,9 @@ TEST(TemporalMatcher, WindowGrowsWithUncertainty) {
   const double wl = predictionWindowPx(rig, 4.0, large, p);
   EXPECT_NEAR(ws, p.min_window_px, 1.0);
   EXPECT_GT(wl, 3 * ws);
-  EXPECT_LE(wl, p.max_window_px);
+  // No cap but the image: a covariance wider than the image searches all of it.
+  Eigen::Matrix<double, 6, 6> huge = Eigen::Matrix<double, 6, 6>::Identity() * 1.0;
+  EXPECT_NEAR(predictionWindowPx(rig, 4.0, huge, p), std::hypot(rig.width, rig.height), 1e-9);
 }
 
 // Reuse: the workspace versions reuse their buffers across frames; a reused (dirty)

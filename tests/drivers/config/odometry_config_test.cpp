@@ -131,5 +131,21 @@ TEST(OdometryConfigBadInput, NonScalarKeyIsAnErrorNotAnException) {
   EXPECT_EQ(errors.size(), 1u);
 }
 
+
+TEST(OdometryConfig, TheAuvProfileIsTheBuiltInDefaultsAndTheCarProfileOnlyChangesTheRig) {
+  // `seavio run` without --config is `--config config/profiles/auv-downward.yaml`.
+  const std::string profiles = std::string(SEAVIO_SOURCE_DIR) + "/config/profiles/";
+  EXPECT_EQ(describe(loadOdometryParamsFile(profiles + "auv-downward.yaml")), describe(odometry::OdometryParams{}));
+  // A profile is the rig only: everything else keeps the defaults.
+  const odometry::OdometryParams car = loadOdometryParamsFile(profiles + "car-forward.yaml");
+  odometry::OdometryParams expected;
+  expected.rig = car.rig;
+  EXPECT_EQ(describe(car), describe(expected));
+  EXPECT_GT(car.rig.max_speed_m_s, odometry::OdometryParams{}.rig.max_speed_m_s);
+  // Its stereo search is everything the rig triangulates.
+  EXPECT_EQ(car.rig.scene_min_depth_m, 0.0);
+  EXPECT_EQ(car.rig.scene_max_depth_m, 0.0);
+}
+
 }  // namespace
 }  // namespace seavio::config

@@ -84,7 +84,7 @@ inline MatchingScene renderScene(const simulate::SimConfig& config, const std::s
   std::string error;
   auto rectifier = camera::StereoRectifier::create(s.dataset.calibration, &error);
   if (!rectifier) throw std::runtime_error(dir + ": calibration unusable: " + error);
-  const odometry::Frontend frontend(std::move(*rectifier), params.features, params.stereo, params.illumination,
+  const odometry::Frontend frontend(std::move(*rectifier), params.features, odometry::withSceneDepth(params.stereo, params.rig), params.illumination,
                                     params.snow, params.ripple_notch);
   s.rig = frontend.rig();
   features::FeatureCountController controller(params.features.controller);
