@@ -87,6 +87,10 @@ TEST_F(Cli, BadInputExitsNonZeroWithAMessage) {
   EXPECT_NE(sh(kSeavio + " run --print-config --config " + cfg.string()), 0);
   EXPECT_NE(slurp(logPath()).find("odometry.icp.max_iteratons"), std::string::npos);
   EXPECT_NE(sh(kSeavio + " run --dataset /tmp --mode sideways --out " + (dir_ / "x.txt").string()), 0);
+  // Validation seeds belong to `seavio bench validate` alone: simulate refuses one, naming the range.
+  EXPECT_NE(sh(kSeavio + " simulate short-plain --frames 2 --seed 70000 --force --out " + (dir_ / "v").string()), 0);
+  EXPECT_NE(slurp(logPath()).find("[70000, 70999]"), std::string::npos) << slurp(logPath());
+  EXPECT_FALSE(fs::exists(dir_ / "v" / "mav0"));
 }
 
 // `seavio bench coasting` over a survey with a blackout: GIVEN 6 s at 10 Hz with vision lost from
