@@ -220,7 +220,7 @@ void printValidationTable(std::ostream& os, const std::vector<ValidationRow>& ro
                       f.incomplete || r.no_imu.incomplete ? "  INCOMPLETE" : "");
   }
   os << "(tilt, head: mean and max tilt / heading error [deg]; coast: frames coasting on the IMU; cv-co: the same\n"
-        " with prediction: constant_velocity, whose frames cannot coast; ratio: mean and final % with the IMU / without)\n";
+        " with prediction: constant_velocity (vision lost, it coasts on constant velocity); ratio: mean and final % with the IMU / without)\n";
   for (const char* mode : {"local", "global"}) {
     std::vector<double> mean, fin, mean_n, fin_n;
     for (const auto& r : rows)
