@@ -1,6 +1,7 @@
 // `seavio bench`: the paper's Tables I and II end to end, per-stage timing against
 // the latency goals, how the per-frame time scales with survey length and feature count, and
 // what vision-loss stretches of rendered surveys cost, in process.
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -8,6 +9,7 @@
 #include <sstream>
 #include <string>
 
+#include <spdlog/fmt/fmt.h>
 #include <spdlog/spdlog.h>
 
 #include "drivers/config/odometry_config.hpp"
@@ -16,6 +18,7 @@
 #include "tools/coasting_report.hpp"
 #include "tools/command_registry.hpp"
 #include "tools/sequence_runner.hpp"
+#include "tools/validation_suite.hpp"
 
 namespace seavio::tools {
 namespace cmd_bench {
@@ -34,7 +37,14 @@ struct BenchCliOptions {
     std::vector<double> at_s = {0.5, 1.0, 1.5, 2.0, 3.0, 5.0};
     double after_s = 2.0;
   } coasting;
+  ValidationOptions validate;
 };
+
+/// The real sequences next to the source tree (SEAVIO_REAL_DATA_DIR, set by CMake), or "".
+std::string defaultRealDataDir() {
+  std::error_code ec;
+  return std::filesystem::is_directory(SEAVIO_REAL_DATA_DIR, ec) ? std::string(SEAVIO_REAL_DATA_DIR) : std::string();
+}
 
 uint32_t checkedSeed(int64_t seed) {
   if (seed < 0 || seed > 0xffffffffLL) throw std::invalid_argument("--seed: must be in [0, 4294967295]");
@@ -108,6 +118,23 @@ void runCoasting(BenchCliOptions& o) {
   emit(os.str(), c.out_dir + "/coasting.txt");
 }
 
+/// The validation matrix (tools/validation_suite.hpp): table, JSON and error-distribution PNG.
+void runValidate(BenchCliOptions& o) {
+  ValidationOptions& v = o.validate;
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::vector<ValidationRow> rows = runValidation(v);
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::ostringstream os;
+  os << "seavio bench validate" << (v.quick ? " --quick" : "") << ": " << rows.size() / 2 << " sequences ("
+     << "validation seeds only), local and global, with and without the IMU; "
+     << (v.config.empty() ? "built-in defaults" : "config " + v.config) << "\n";
+  printValidationTable(os, rows);
+  os << fmt::format("wall time {:.0f} s, {} runs at a time\n", wall_s, v.jobs);
+  writeValidationJson(v.out_dir + "/validate.json", rows);
+  writeValidationPlot(v.out_dir + "/validate.png", rows);
+  emit(os.str(), v.out_dir + "/validate.txt");
+}
+
 void guarded(const char* what, const std::function<void()>& fn) {
   try {
     fn();
@@ -174,6 +201,20 @@ const RegisterCommand kRegister("bench", [](CLI::App& app) {
   coasting->add_option("--after", o->coasting.after_s, "seconds after each stretch to report the error at");
   coasting->add_option("--out", o->coasting.out_dir, "folder for the table (coasting.txt)");
   coasting->callback([o] { guarded("coasting", [o] { runCoasting(*o); }); });
+
+  CLI::App* validate = cmd->add_subcommand(
+      "validate", "The validation matrix every published figure comes from: simulated presets x conditions x "
+                  "validation seeds, plus every real sequence; local and global, with and without the IMU");
+  o->validate.data_dir = defaultRealDataDir();
+  validate->add_flag("--quick", o->validate.quick, "the subset that fits in 10 minutes on 2 cores");
+  validate->add_option("--out", o->validate.out_dir, "folder for the rendered sequences, the table, JSON and PNG");
+  validate->add_option("--data", o->validate.data_dir, "folder whose sub-folders are the real sequences (\"\": none)")
+      ->capture_default_str();
+  validate->add_option("--config", o->validate.config, "tuning YAML (default: built-in defaults)");
+  validate->add_option("--frames", o->validate.max_frames, "cut every sequence to N frames (tests)");
+  validate->add_option("--seeds", o->validate.seeds, "validation seeds per preset and condition (tests)");
+  validate->add_option("--jobs", o->validate.jobs, "runs at a time (the results do not depend on it)");
+  validate->callback([o] { guarded("validate", [o] { runValidate(*o); }); });
 });
 
 }  // namespace

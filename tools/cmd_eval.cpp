@@ -1,5 +1,6 @@
 // `seavio eval`: accuracy of an estimated trajectory against ground truth (paper Table I,
 // Figs. 6 and 7).
+#include <filesystem>
 #include <iostream>
 
 #include <spdlog/spdlog.h>
@@ -24,8 +25,18 @@ struct EvalOptions {
 
 int runEval(const EvalOptions& o) {
   std::vector<eval::TimedPose> gt, est;
+  eval::EvalParams p;
   try {
     gt = drivers::readTrajectory(o.gt);
+    std::error_code ec;
+    if (std::filesystem::is_directory(o.gt, ec)) {
+      // A dataset's images bound what an estimate could cover; its truth may run past them.
+      const drivers::Dataset ds = drivers::loadDataset(o.gt);
+      if (!ds.frames.empty()) {
+        p.coverage_first_ns = ds.frames.front().t_ns;
+        p.coverage_last_ns = ds.frames.back().t_ns;
+      }
+    }
     if (isLcmLog(o.est)) {
       // The daemon's output as recorded by lcm-logger; damage is reported, not fatal.
       const DaemonOutputLog log = readDaemonOutputLog(o.est, o.pose_channel);
@@ -44,7 +55,6 @@ int runEval(const EvalOptions& o) {
     spdlog::error("{}", e.what());
     return 2;
   }
-  eval::EvalParams p;
   p.max_dt_ns = static_cast<int64_t>(o.max_dt_ms * 1e6);
   p.rpe_segment_m = o.segment_m;
   const eval::TrajectoryMetrics m = eval::evaluateTrajectory(gt, est, p);
@@ -76,7 +86,8 @@ const RegisterCommand kRegister("eval", [](CLI::App& app) {
       ->check(CLI::PositiveNumber);
   cmd->add_option("--segment-m", opts->segment_m, "relative pose error segment length [m]")
       ->check(CLI::PositiveNumber);
-  cmd->footer("Exit status: 0 ok, 2 bad input, 3 nothing associated, 4 incomplete (< 95% of ground truth).");
+  cmd->footer("Exit status: 0 ok, 2 bad input, 3 nothing associated, 4 incomplete (< 95% of the ground truth from the "
+              "first to the last camera frame when --gt is a dataset folder, else of all of it).");
   cmd->callback([opts] {
     const int rc = runEval(*opts);
     if (rc != 0) throw CLI::RuntimeError(rc);

@@ -99,16 +99,19 @@ TrajectoryMetrics evaluateTrajectory(const std::vector<TimedPose>& gt, const std
     period = dts[dts.size() / 2];
   }
   const int64_t cover_dt = std::max<int64_t>(params.max_dt_ns, period * 3 / 2);
-  int covered = 0;
+  const bool spanned = params.coverage_first_ns <= params.coverage_last_ns;
+  int covered = 0, to_cover = 0;
   for (const auto& g : gt) {
     if (g.t_ns >= est.front().t_ns && g.t_ns <= est.back().t_ns) ++m.gt_in_span;
+    if (spanned && (g.t_ns < params.coverage_first_ns || g.t_ns > params.coverage_last_ns)) continue;
+    ++to_cover;
     const auto it =
         std::lower_bound(est.begin(), est.end(), g.t_ns, [](const TimedPose& a, int64_t v) { return a.t_ns < v; });
     bool near = it != est.end() && it->t_ns - g.t_ns <= cover_dt;
     near = near || (it != est.begin() && g.t_ns - (it - 1)->t_ns <= cover_dt);
     covered += near ? 1 : 0;
   }
-  m.coverage = double(covered) / double(gt.size());
+  m.coverage = to_cover > 0 ? double(covered) / double(to_cover) : 0.0;
   m.incomplete = m.associated == 0 || m.coverage < params.min_coverage;
   if (G.empty()) return m;
 

@@ -26,6 +26,11 @@ struct EvalParams {
   double rpe_segment_m = 10.0;
   /// Below this fraction of ground-truth frames covered the result is flagged incomplete.
   double min_coverage = 0.95;
+  /// The span [ns] an estimate could cover: the first to the last camera frame. Ground truth
+  /// outside it (a real recording's truth starts before the images and ends after them) does
+  /// not count against coverage. first > last (the default): the whole ground truth.
+  int64_t coverage_first_ns = 1;
+  int64_t coverage_last_ns = 0;
   /// Steps between consecutive poses count as straight (heading_step_rms_rad) while the
   /// truth turns slower than this [rad/s].
   double straight_max_turn_rate_rad_s = 0.01;
@@ -36,8 +41,8 @@ struct TrajectoryMetrics {
   int est_poses = 0;          ///< estimated samples
   int associated = 0;         ///< estimates matched to ground truth
   int gt_in_span = 0;         ///< ground-truth samples in the time span of the estimate
-  /// associated / ground-truth frames from the first to the last ground-truth time; a
-  /// trajectory that stops early or drops frames is < 1.
+  /// Covered / ground-truth frames in EvalParams' coverage span (else the whole ground truth);
+  /// a trajectory that stops early or drops frames is < 1.
   double coverage = 0;
   bool incomplete = true;     ///< coverage < EvalParams::min_coverage (or nothing associated)
 

@@ -18,6 +18,8 @@ SeafloorRenderer::SeafloorRenderer(const SimConfig& config, const StereoRigModel
       rig_(rig),
       floor_(config.seafloor, config.seed),
       snow_(config.snow, floor_.relief(), config.seed) {
+  // Every rendered image goes through here, also where the caller skipped validate().
+  checkSeedUse(config.seed, config.seed_use);
   const int W = config.rig.width, H = config.rig.height;
   for (int cam = 0; cam < 2; ++cam) {
     rays_[cam].resize(static_cast<size_t>(W) * H);

@@ -159,6 +159,7 @@ double exposureGain(const LightingConfig& l, double t_s) {
 }
 
 void validate(const SimConfig& c) {
+  checkSeedUse(c.seed, c.seed_use);
   std::ostringstream errors;
   auto check = [&errors](bool ok, const char* key, const std::string& what) {
     if (!ok) errors << "\n  " << key << ": " << what;

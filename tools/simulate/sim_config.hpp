@@ -10,6 +10,7 @@
 #include <Eigen/Core>
 
 #include "core/imu/imu_noise.hpp"
+#include "tools/simulate/seed_ranges.hpp"
 
 namespace seavio::simulate {
 
@@ -168,6 +169,9 @@ std::vector<std::string> imuModelNames();
 struct SimConfig {
   std::string preset = "custom";
   uint32_t seed = 1;
+  /// Tuning configurations refuse validation seeds and validation ones take only those
+  /// (seed_ranges.hpp); only the validation suite sets kValidation.
+  SeedUse seed_use = SeedUse::kTuning;
   int frames = 3000;
   double frame_rate_hz = 1.0;
   imu::ImuNoise imu = imuModel("adis16448");  ///< densities and rate_hz of the IMU (imuModel)
@@ -208,7 +212,8 @@ double footprintWidth(const SimConfig& config);
 void setSideOverlap(SimConfig& config, double overlap);
 /// Brightness factor of the camera at trajectory time t_s (exposure steps and drift).
 double exposureGain(const LightingConfig& lighting, double t_s);
-/// Throws std::invalid_argument naming the first bad parameter (option-style key).
+/// Throws std::invalid_argument naming the first bad parameter (option-style key), or a seed
+/// on the wrong side of the validation range (checkSeedUse).
 void validate(const SimConfig& config);
 /// Bounds of a stretch in integer ns since the first frame: [start, end), rounded to 1 ns.
 std::pair<int64_t, int64_t> visionLossBoundsNs(const VisionLossStretch& stretch);

@@ -236,6 +236,35 @@ TEST(TrajectoryMetrics, ShortEstimateIsFlaggedIncomplete) {
   EXPECT_EQ(m.associated, 0);
 }
 
+TEST(TrajectoryMetrics, CoverageCountsOnlyTheCameraSpan) {
+  // GIVEN truth over 0 .. 10 s and a complete estimate over the images' 2 .. 8 s, as on a
+  // real recording whose truth starts before the first image and ends after the last.
+  const auto gt = line(10.0);
+  std::vector<TimedPose> est;
+  for (const auto& g : gt)
+    if (g.t_ns >= 2'000'000'000 && g.t_ns <= 8'000'000'000) est.push_back(g);
+  // Against the whole truth it covers 61 of 101 frames: incomplete.
+  TrajectoryMetrics m = evaluateTrajectory(gt, est);
+  EXPECT_TRUE(m.incomplete);
+  EXPECT_NEAR(m.coverage, 61.0 / 101.0, 0.02);
+
+  // Over the camera span it is complete.
+  EvalParams p;
+  p.coverage_first_ns = 2'000'000'000;
+  p.coverage_last_ns = 8'000'000'000;
+  m = evaluateTrajectory(gt, est, p);
+  EXPECT_FALSE(m.incomplete);
+  EXPECT_NEAR(m.coverage, 1.0, 1e-12);
+
+  // An estimate that stops half way through the camera span is still incomplete.
+  std::vector<TimedPose> half;
+  for (const auto& e : est)
+    if (e.t_ns <= 5'000'000'000) half.push_back(e);
+  m = evaluateTrajectory(gt, half, p);
+  EXPECT_TRUE(m.incomplete);
+  EXPECT_NEAR(m.coverage, 32.0 / 61.0, 0.02);
+}
+
 TEST(TrajectoryMetrics, UmeyamaRecoversRigidTransform) {
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> u(-5, 5);

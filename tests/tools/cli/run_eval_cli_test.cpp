@@ -4,6 +4,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -87,6 +88,10 @@ TEST_F(Cli, BadInputExitsNonZeroWithAMessage) {
   EXPECT_NE(sh(kSeavio + " run --print-config --config " + cfg.string()), 0);
   EXPECT_NE(slurp(logPath()).find("odometry.icp.max_iteratons"), std::string::npos);
   EXPECT_NE(sh(kSeavio + " run --dataset /tmp --mode sideways --out " + (dir_ / "x.txt").string()), 0);
+  // Validation seeds belong to `seavio bench validate` alone: simulate refuses one, naming the range.
+  EXPECT_NE(sh(kSeavio + " simulate short-plain --frames 2 --seed 70000 --force --out " + (dir_ / "v").string()), 0);
+  EXPECT_NE(slurp(logPath()).find("[70000, 70999]"), std::string::npos) << slurp(logPath());
+  EXPECT_FALSE(fs::exists(dir_ / "v" / "mav0"));
 }
 
 // `seavio bench coasting` over a survey with a blackout: GIVEN 6 s at 10 Hz with vision lost from
@@ -108,6 +113,34 @@ TEST_F(Cli, BenchCoastingReportsEachLossStretch) {
       << slurp(logPath());
   EXPECT_NE(sh(kSeavio + " bench coasting --dataset " + plain.string() + " --out " + out.string()), 0);
   EXPECT_NE(slurp(logPath()).find(plain.string() + "/mav0/vision_loss.csv"), std::string::npos) << slurp(logPath());
+}
+
+// `seavio bench validate` on a tiny matrix: GIVEN one validation seed per preset and condition, 8 frames each,
+// and one folder of "real" sequences holding one survey, THEN the table and the JSON have every
+// sequence in both modes, with and without the IMU, and the PNG is written.
+TEST_F(Cli, BenchValidateReportsEveryRunOfTheMatrix) {
+  const fs::path real = dir_ / "real", out = dir_ / "validate";
+  ASSERT_EQ(sh(kSeavio + " simulate short-plain --frames 8 --seed 79 --force --out " + (real / "tiny").string()), 0)
+      << slurp(logPath());
+  ASSERT_EQ(sh(kSeavio + " bench validate --quick --frames 8 --seeds 1 --data " + real.string() + " --out " + out.string()),
+            0)
+      << slurp(logPath());
+  const std::string table = slurp(out / "validate.txt"), json = slurp(out / "validate.json");
+  const std::vector<std::string> sequences = {"survey-plain/rest/70000", "survey-snow/rest/70000", "survey-plain/sea/70000", "survey-snow/sea/70000", "tiny"};
+  for (const auto& name : sequences) {
+    for (const char* mode : {"local ", "global"}) {
+      EXPECT_NE(table.find(name + std::string(44 - name.size(), ' ') + mode), std::string::npos) << name << table;
+    }
+    EXPECT_NE(json.find("\"sequence\": \"" + name + "\", "), std::string::npos) << name;
+  }
+  std::size_t runs = 0, no_imu = 0;
+  for (std::size_t at = json.find("\"mode\": "); at != std::string::npos; at = json.find("\"mode\": ", at + 1)) ++runs;
+  for (std::size_t at = json.find("\"no_imu\": {"); at != std::string::npos; at = json.find("\"no_imu\": {", at + 1)) ++no_imu;
+  EXPECT_EQ(runs, 10u);
+  EXPECT_EQ(no_imu, 10u);
+  EXPECT_EQ(json.find("\"frames\": 0,"), std::string::npos) << "a run processed no frame";
+  EXPECT_NE(table.find("median mean"), std::string::npos) << table;
+  EXPECT_GT(fs::file_size(out / "validate.png"), 1000u);
 }
 
 }  // namespace

@@ -3,7 +3,9 @@
 
 #include <stdexcept>
 
+#include "tools/simulate/seafloor_renderer.hpp"
 #include "tools/simulate/sim_config.hpp"
+#include "tools/simulate/stereo_rig_model.hpp"
 
 namespace seavio::simulate {
 namespace {
@@ -52,6 +54,30 @@ TEST(SimConfig, BadParametersAreAllNamed) {
     EXPECT_THAT(e.what(), HasSubstr("tilt-deg"));
     EXPECT_THAT(e.what(), HasSubstr("speed"));
   }
+}
+
+TEST(SimConfig, ValidationSeedsAreRefusedOutsideTheValidationSuite) {
+  // GIVEN a tuning configuration (what tests and `seavio simulate` build) on a validation seed.
+  SimConfig c = presetConfig("short-plain");
+  c.seed = kValidationSeeds.first;
+  try {
+    validate(c);
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("validation seed"));
+    EXPECT_THAT(e.what(), HasSubstr(validationSeedRangeText()));
+  }
+  // The renderer refuses it too, for callers that skip validate().
+  c.seed = kValidationSeeds.last;
+  EXPECT_THROW(SeafloorRenderer(c, StereoRigModel(c.rig)), std::invalid_argument);
+  // Just outside the range is a tuning seed.
+  c.seed = kValidationSeeds.last + 1;
+  EXPECT_NO_THROW(validate(c));
+  // The validation suite's configurations take validation seeds and nothing else.
+  c.seed_use = SeedUse::kValidation;
+  EXPECT_THROW(validate(c), std::invalid_argument);
+  c.seed = kValidationSeeds.first;
+  EXPECT_NO_THROW(validate(c));
 }
 
 }  // namespace

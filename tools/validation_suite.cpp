@@ -1,0 +1,312 @@
+#include "tools/validation_suite.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <future>
+#include <stdexcept>
+
+#include <spdlog/fmt/fmt.h>
+#include <spdlog/spdlog.h>
+
+#include "core/eval/trajectory_metrics.hpp"
+#include "drivers/config/odometry_config.hpp"
+#include "drivers/dataset/dataset.hpp"
+#include "tools/plot.hpp"
+#include "tools/sequence_runner.hpp"
+#include "tools/simulate/seed_ranges.hpp"
+#include "tools/simulate/sequence_writer.hpp"
+#include "tools/simulate/sim_config.hpp"
+
+namespace seavio::tools {
+namespace validation_suite {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// The simulated part of the matrix: presets x conditions, each over the first `seeds`
+/// validation seeds at `frames` frames (0: the preset's own).
+struct SimulatedBlock {
+  std::vector<std::string> presets, conditions;
+  int seeds = 1;
+  int frames = 0;
+};
+
+/// The paper's scenario rendered independently of the tuning presets (survey-plain/-snow: 10 Hz,
+/// 640x480, 1200 frames), as the presets have it ("rest") and with everything a real vehicle
+/// adds at once ("sea": moving at start, consumer IMU, waves, mount misalignment, time offset).
+SimulatedBlock simulatedBlock(bool quick) {
+  if (quick) return {{"survey-plain", "survey-snow"}, {"rest", "sea"}, 1, 300};
+  return {{"survey-plain", "survey-snow"}, {"rest", "sea"}, 2, 0};
+}
+
+simulate::SimConfig sequenceConfig(const ValidationSequence& s) {
+  simulate::SimConfig c = simulate::presetConfig(s.preset);
+  c.seed = s.seed;
+  c.seed_use = simulate::SeedUse::kValidation;
+  // Frames first: conditions place their events (hover, exposure steps) along the duration.
+  if (s.frames > 0) c.frames = std::min(c.frames, s.frames);
+  simulate::applyCondition(c, s.condition);
+  simulate::validate(c);
+  return c;
+}
+
+/// Renders the sequence into DIR/<name with '/' as '-'>, or reuses it when its config file
+/// says it was rendered from the same configuration.
+drivers::Dataset loadSequence(const ValidationSequence& s, const fs::path& out_dir) {
+  if (s.preset.empty()) return drivers::loadDataset(s.dir);
+  const simulate::SimConfig c = sequenceConfig(s);
+  std::string tag = s.name;
+  std::replace(tag.begin(), tag.end(), '/', '-');
+  const fs::path dir = out_dir / "sequences" / fmt::format("{}-n{}", tag, c.frames);
+  if (!fs::exists(dir / "mav0" / "state_groundtruth_estimate0" / "data.csv")) {
+    spdlog::info("bench validate: rendering {} ({} frames) into {}", s.name, c.frames, dir.string());
+    simulate::writeSequence(c, dir.string(), true);
+  }
+  return drivers::loadEuroc(dir.string());
+}
+
+RunFigures figuresOf(const drivers::Dataset& ds, const SequenceRun& run) {
+  std::vector<eval::TimedPose> gt;
+  for (const auto& g : ds.ground_truth) gt.push_back({g.t_ns, g.T_W_B});
+  eval::EvalParams p;
+  if (!run.trajectory.empty()) {
+    p.coverage_first_ns = ds.frames.front().t_ns;
+    p.coverage_last_ns = ds.frames[std::min(run.trajectory.size(), ds.frames.size()) - 1].t_ns;
+  }
+  const eval::TrajectoryMetrics m = eval::evaluateTrajectory(gt, run.trajectory, p);
+  RunFigures f;
+  f.frames = static_cast<int>(run.results.size());
+  for (const auto& r : run.results) f.imu_only_frames += r.source == PoseSource::kImuOnly;
+  f.distance_m = m.distance_m;
+  f.mean_error_pct = m.mean_error_pct;
+  f.final_error_pct = m.final_error_pct;
+  f.mean_tilt_error_deg = m.mean_tilt_error_deg;
+  f.max_tilt_error_deg = m.max_tilt_error_deg;
+  f.mean_heading_error_deg = m.mean_heading_error_deg;
+  f.max_heading_error_deg = m.max_heading_error_deg;
+  f.incomplete = m.incomplete;
+  for (std::size_t i = 0; i < m.error_m.size(); ++i)
+    if (m.distance_along_m[i] >= 1.0) f.error_pct.push_back(100.0 * m.error_m[i] / m.distance_along_m[i]);
+  return f;
+}
+
+/// One run: the odometry over the whole sequence in `mode`, with or without the IMU.
+RunFigures runOne(const drivers::Dataset& ds, const odometry::OdometryParams& base, const std::string& mode,
+                  bool imu, std::size_t max_frames) {
+  odometry::OdometryParams p = base;
+  p.mode = mode == "global" ? odometry::Mode::kGlobal : odometry::Mode::kLocal;
+  p.prediction = imu ? odometry::Prediction::kImu : odometry::Prediction::kConstantVelocity;
+  // One feature thread per run: the runs themselves fill the cores.
+  return figuresOf(ds, runSequence(ds, p, max_frames, {}, 1));
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+std::string ratio(double with_imu, double without) {
+  return without > 0 ? fmt::format("{:.2f}", with_imu / without) : std::string("-");
+}
+
+}  // namespace
+}  // namespace validation_suite
+
+namespace fs = std::filesystem;
+
+std::vector<std::string> realSequenceDirs(const std::string& data_dir) {
+  std::vector<std::string> dirs;
+  if (data_dir.empty()) return dirs;
+  if (!fs::is_directory(data_dir)) throw std::runtime_error(data_dir + ": no such folder of real sequences");
+  for (const auto& e : fs::directory_iterator(data_dir))
+    if (e.is_directory()) dirs.push_back(e.path().string());
+  std::sort(dirs.begin(), dirs.end());
+  return dirs;
+}
+
+std::vector<ValidationSequence> validationMatrix(const ValidationOptions& o, const std::vector<std::string>& real_dirs) {
+  if (o.max_frames < 0) throw std::invalid_argument(fmt::format("--frames: must be >= 0, got {}", o.max_frames));
+  if (o.seeds < 0) throw std::invalid_argument(fmt::format("--seeds: must be >= 0, got {}", o.seeds));
+  const validation_suite::SimulatedBlock b = validation_suite::simulatedBlock(o.quick);
+  const int seeds = o.seeds > 0 ? o.seeds : b.seeds;
+  const auto n_validation = static_cast<int64_t>(simulate::kValidationSeeds.last - simulate::kValidationSeeds.first) + 1;
+  if (seeds > n_validation) throw std::invalid_argument(fmt::format("--seeds: at most {}", n_validation));
+  std::vector<ValidationSequence> m;
+  for (const auto& preset : b.presets)
+    for (const auto& condition : b.conditions)
+      for (int k = 0; k < seeds; ++k) {
+        ValidationSequence s;
+        s.preset = preset;
+        s.condition = condition;
+        s.seed = simulate::kValidationSeeds.first + static_cast<uint32_t>(k);
+        s.frames = o.max_frames > 0 ? o.max_frames : b.frames;
+        s.name = fmt::format("{}/{}/{}", preset, condition, s.seed);
+        m.push_back(s);
+      }
+  for (const auto& dir : real_dirs) {
+    ValidationSequence s;
+    s.name = fs::path(dir).filename().string();
+    s.dir = dir;
+    s.frames = o.max_frames;
+    m.push_back(s);
+  }
+  return m;
+}
+
+std::vector<ValidationRow> runValidation(const ValidationOptions& o) {
+  if (o.jobs < 1) throw std::invalid_argument(fmt::format("--jobs: must be >= 1, got {}", o.jobs));
+  const std::vector<ValidationSequence> matrix = validationMatrix(o, realSequenceDirs(o.data_dir));
+  const odometry::OdometryParams base = config::loadOdometryParamsFile(o.config);
+  fs::create_directories(o.out_dir);
+  const char* modes[] = {"local", "global"};
+  std::vector<drivers::Dataset> datasets;
+  std::vector<ValidationRow> rows;  // sequence k's modes at 2k and 2k + 1
+  for (const auto& s : matrix) {
+    datasets.push_back(validation_suite::loadSequence(s, o.out_dir));
+    if (datasets.back().ground_truth.empty())
+      throw std::runtime_error(datasets.back().root + ": no ground truth to validate against");
+    for (const char* mode : modes) {
+      ValidationRow r;
+      r.sequence = s;
+      r.mode = mode;
+      rows.push_back(r);
+    }
+  }
+  // Every run is independent and deterministic: they go on `jobs` threads at a time and land
+  // in their own slot, so the table does not depend on the order they finish in.
+  struct Job {
+    std::size_t row;
+    bool imu;
+  };
+  std::vector<Job> jobs;
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    jobs.push_back({i, true});
+    jobs.push_back({i, false});
+  }
+  std::size_t next = 0;
+  while (next < jobs.size()) {
+    std::vector<std::future<void>> batch;
+    for (int k = 0; k < o.jobs && next < jobs.size(); ++k, ++next) {
+      const Job j = jobs[next];
+      batch.push_back(std::async(std::launch::async, [&, j] {
+        ValidationRow& r = rows[j.row];
+        const drivers::Dataset& ds = datasets[j.row / 2];
+        const auto max_frames = static_cast<std::size_t>(std::max(0, r.sequence.frames));
+        (j.imu ? r.imu : r.no_imu) = validation_suite::runOne(ds, base, r.mode, j.imu, r.sequence.preset.empty() ? max_frames : 0);
+        spdlog::info("bench validate: {} {} {}: mean {:.3f} %, final {:.3f} %", r.sequence.name, r.mode,
+                     j.imu ? "imu" : "no imu", (j.imu ? r.imu : r.no_imu).mean_error_pct,
+                     (j.imu ? r.imu : r.no_imu).final_error_pct);
+      }));
+    }
+    for (auto& f : batch) f.get();
+  }
+  return rows;
+}
+
+void printValidationTable(std::ostream& os, const std::vector<ValidationRow>& rows) {
+  os << fmt::format("{:<44}{:<7}{:>6}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}{:>7}{:>7} {}\n", "sequence", "mode", "frames",
+                    "dist[m]", "mean%", "final%", "tilt", "tiltmx", "head", "headmx", "coast", "cv-co", "ratio mean/final");
+  for (const auto& r : rows) {
+    const RunFigures& f = r.imu;
+    os << fmt::format("{:<44}{:<7}{:>6}{:>8.1f}{:>8.3f}{:>8.3f}{:>8.2f}{:>8.2f}{:>8.2f}{:>8.2f}{:>7}{:>7} {}/{}{}\n",
+                      r.sequence.name, r.mode, f.frames, f.distance_m, f.mean_error_pct, f.final_error_pct,
+                      f.mean_tilt_error_deg, f.max_tilt_error_deg, f.mean_heading_error_deg, f.max_heading_error_deg,
+                      f.imu_only_frames, r.no_imu.imu_only_frames, validation_suite::ratio(f.mean_error_pct, r.no_imu.mean_error_pct),
+                      validation_suite::ratio(f.final_error_pct, r.no_imu.final_error_pct),
+                      f.incomplete || r.no_imu.incomplete ? "  INCOMPLETE" : "");
+  }
+  os << "(tilt, head: mean and max tilt / heading error [deg]; coast: frames coasting on the IMU; cv-co: the same\n"
+        " with prediction: constant_velocity (vision lost, it coasts on constant velocity); ratio: mean and final % with the IMU / without)\n";
+  for (const char* mode : {"local", "global"}) {
+    std::vector<double> mean, fin, mean_n, fin_n;
+    for (const auto& r : rows)
+      if (r.mode == mode) {
+        mean.push_back(r.imu.mean_error_pct);
+        fin.push_back(r.imu.final_error_pct);
+        mean_n.push_back(r.no_imu.mean_error_pct);
+        fin_n.push_back(r.no_imu.final_error_pct);
+      }
+    if (mean.empty()) continue;
+    os << fmt::format("{:<7} median mean {:.3f} %, final {:.3f} %; worst mean {:.3f} %, final {:.3f} %   "
+                      "(no IMU: median {:.3f} / {:.3f} %, worst {:.3f} / {:.3f} %)\n",
+                      mode, validation_suite::median(mean), validation_suite::median(fin), *std::max_element(mean.begin(), mean.end()),
+                      *std::max_element(fin.begin(), fin.end()), validation_suite::median(mean_n), validation_suite::median(fin_n),
+                      *std::max_element(mean_n.begin(), mean_n.end()), *std::max_element(fin_n.begin(), fin_n.end()));
+  }
+}
+
+void writeValidationJson(const std::string& path, const std::vector<ValidationRow>& rows) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error(path + ": cannot open for writing");
+  auto num = [](double v) { return std::isfinite(v) ? fmt::format("{:.9g}", v) : std::string("null"); };
+  auto figures = [&](const RunFigures& f) {
+    std::string s = fmt::format(
+        "{{\"frames\": {}, \"imu_only_frames\": {}, \"distance_m\": {}, \"mean_error_pct\": {}, "
+        "\"final_error_pct\": {}, \"mean_tilt_error_deg\": {}, \"max_tilt_error_deg\": {}, "
+        "\"mean_heading_error_deg\": {}, \"max_heading_error_deg\": {}, \"incomplete\": {}, \"error_pct\": [",
+        f.frames, f.imu_only_frames, num(f.distance_m), num(f.mean_error_pct), num(f.final_error_pct),
+        num(f.mean_tilt_error_deg), num(f.max_tilt_error_deg), num(f.mean_heading_error_deg),
+        num(f.max_heading_error_deg), f.incomplete ? "true" : "false");
+    for (std::size_t i = 0; i < f.error_pct.size(); ++i) s += (i ? ", " : "") + num(f.error_pct[i]);
+    return s + "]}";
+  };
+  out << "{\n  \"validation_seeds\": [" << simulate::kValidationSeeds.first << ", " << simulate::kValidationSeeds.last
+      << "],\n  \"runs\": [\n";
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const auto& r = rows[i];
+    out << fmt::format(
+        "    {{\"sequence\": \"{}\", \"preset\": \"{}\", \"condition\": \"{}\", \"seed\": {}, \"real\": {}, "
+        "\"mode\": \"{}\",\n     \"imu\": {},\n     \"no_imu\": {}}}{}\n",
+        r.sequence.name, r.sequence.preset, r.sequence.condition, r.sequence.seed,
+        r.sequence.preset.empty() ? "true" : "false", r.mode, figures(r.imu), figures(r.no_imu),
+        i + 1 < rows.size() ? "," : "");
+  }
+  out << "  ]\n}\n";
+  if (!out) throw std::runtime_error(path + ": write failed");
+}
+
+void writeValidationPlot(const std::string& path_png, const std::vector<ValidationRow>& rows) {
+  struct Curve {
+    const char* label;
+    std::string mode;
+    bool imu;
+    cv::Scalar colour;
+  };
+  const Curve curves[] = {{"local, IMU", "local", true, plot::kBlue},
+                          {"global, IMU", "global", true, plot::kRed},
+                          {"local, no IMU", "local", false, plot::kGreen},
+                          {"global, no IMU", "global", false, plot::kDarkGrey}};
+  std::vector<std::vector<double>> values;
+  double x_max = 0;
+  for (const auto& c : curves) {
+    std::vector<double> v;
+    for (const auto& r : rows)
+      if (r.mode == c.mode) {
+        const auto& e = (c.imu ? r.imu : r.no_imu).error_pct;
+        v.insert(v.end(), e.begin(), e.end());
+      }
+    std::sort(v.begin(), v.end());
+    // The worst 1 % would stretch the axis past what the rest shows.
+    if (!v.empty()) x_max = std::max(x_max, v[std::min(v.size() - 1, v.size() * 99 / 100)]);
+    values.push_back(std::move(v));
+  }
+  cv::Mat img(600, 900, CV_8UC3, cv::Scalar(255, 255, 255));
+  const plot::Axes a{cv::Rect(90, 50, 780, 480), 0.0, x_max > 0 ? x_max * 1.05 : 1.0, 0.0, 1.0};
+  plot::drawAxes(img, a, "position error [% of distance travelled]", "fraction of frames",
+                 "bench validate: error distribution over every frame of the matrix");
+  for (std::size_t k = 0; k < values.size(); ++k) {
+    const auto& v = values[k];
+    std::vector<cv::Point2d> pts;
+    for (std::size_t i = 0; i < v.size(); ++i) pts.emplace_back(v[i], double(i + 1) / double(v.size()));
+    if (pts.size() > 1) plot::polyline(img, a, pts, curves[k].colour, 2);
+    cv::putText(img, curves[k].label, cv::Point(a.area.x + a.area.width - 170, a.area.y + 390 + 22 * int(k)),
+                plot::kFont, 0.5, curves[k].colour, 1, cv::LINE_AA);
+  }
+  plot::writePng(path_png, img);
+}
+
+}  // namespace seavio::tools
