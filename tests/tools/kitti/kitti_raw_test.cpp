@@ -4,7 +4,7 @@
 // `seavio run --config config/profiles/car-forward.yaml` does, THEN no frame coasts and the
 // drift stays within the bounds measured on it; AND without the IMU stream (the KITTI
 // odometry layout) vision alone tracks every frame. The data is validation: no parameter was
-// chosen on it. It lives outside the repository; a missing folder fails the test.
+// chosen on it. It lives in data/real (SEAVIO_REAL_DATA_DIR); a missing folder fails the test.
 #include <gtest/gtest.h>
 
 #include <cstdio>

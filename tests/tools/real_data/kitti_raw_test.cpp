@@ -21,12 +21,6 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr const char* kSequence = "kitti_raw_2011_09_26_drive_0001";
-// Measured with the shipped defaults (local, the underwater rig's limits on a car): mean 48.5 %,
-// final 64.9 % of 106 m, 57 of 107 frames coasting on the IMU. The bounds leave room for
-// platform noise, not for a regression; a rig profile that fits the car tightens them.
-constexpr double kMeanBoundPct = 55;
-constexpr double kFinalBoundPct = 72;
-constexpr int kCoastBound = 62;
 
 std::string sequenceDir() {
   const char* env = std::getenv("SEAVIO_REAL_DATA");
@@ -77,22 +71,27 @@ TEST(KittiRaw, ReadersTakeWhatRealDataHas) {
 
 // The whole sequence, local mode, shipped defaults: complete over the camera span, and within
 // the measured figures' bounds.
-TEST(KittiRaw, LocalOdometryWithDefaultsStaysWithinItsMeasuredFigures) {
+// The shipped default is the underwater rig's profile: on a car most frames are refused. What
+// must hold on any rig: the estimate is evaluated over the camera span (the ground truth runs
+// past the images), and every frame that coasts names the check that refused it. The car's
+// accuracy with its own profile is tests/tools/kitti.
+TEST(KittiRaw, WithTheUnderwaterProfileEveryCoastingFrameNamesItsRefusal) {
   const drivers::Dataset ds = load();
   ASSERT_FALSE(ds.frames.empty());
   const tools::SequenceRun run = tools::runSequence(ds, config::loadOdometryParamsFile(""));
   ASSERT_EQ(run.trajectory.size(), ds.frames.size());
-  int coasting = 0;
-  for (const auto& r : run.results) coasting += r.source == PoseSource::kImuOnly;
+  int coasting = 0, unexplained = 0;
+  for (std::size_t i = 1; i < run.results.size(); ++i) {
+    const auto& r = run.results[i];
+    if (r.source != PoseSource::kImuOnly) continue;
+    ++coasting;
+    unexplained += r.refusal.check == Refusal::kNone;
+  }
   const eval::TrajectoryMetrics m = evaluate(ds, run.trajectory);
   EXPECT_FALSE(m.incomplete) << "coverage " << m.coverage;
   EXPECT_NEAR(m.distance_m, 107.0, 3.0);
-  RecordProperty("mean_error_pct", std::to_string(m.mean_error_pct));
-  RecordProperty("final_error_pct", std::to_string(m.final_error_pct));
-  RecordProperty("imu_only_frames", coasting);
-  EXPECT_LT(m.mean_error_pct, kMeanBoundPct) << "final " << m.final_error_pct << " %, coasting " << coasting;
-  EXPECT_LT(m.final_error_pct, kFinalBoundPct) << "mean " << m.mean_error_pct << " %";
-  EXPECT_LE(coasting, kCoastBound) << "mean " << m.mean_error_pct << " %, final " << m.final_error_pct << " %";
+  EXPECT_GT(coasting, 0) << "a car at 5-13 m/s is outside the underwater profile's speed bound";
+  EXPECT_EQ(unexplained, 0) << "of " << coasting << " coasting frames";
 }
 
 }  // namespace
