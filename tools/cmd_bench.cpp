@@ -210,7 +210,7 @@ const RegisterCommand kRegister("bench", [](CLI::App& app) {
   validate->add_option("--out", o->validate.out_dir, "folder for the rendered sequences, the table, JSON and PNG");
   validate->add_option("--data", o->validate.data_dir, "folder whose sub-folders are the real sequences (\"\": none)")
       ->capture_default_str();
-  validate->add_option("--config", o->validate.config, "tuning YAML (default: built-in defaults)");
+  validate->add_option("--config", o->validate.config, "tuning YAML (default: built-in defaults; a real sequence runs with the rig_profile.yaml in its folder)");
   validate->add_option("--frames", o->validate.max_frames, "cut every sequence to N frames (tests)");
   validate->add_option("--seeds", o->validate.seeds, "validation seeds per preset and condition (tests)");
   validate->add_option("--jobs", o->validate.jobs, "runs at a time (the results do not depend on it)");

@@ -164,11 +164,14 @@ std::vector<ValidationRow> runValidation(const ValidationOptions& o) {
   fs::create_directories(o.out_dir);
   const char* modes[] = {"local", "global"};
   std::vector<drivers::Dataset> datasets;
+  std::vector<odometry::OdometryParams> params;  // per sequence
   std::vector<ValidationRow> rows;  // sequence k's modes at 2k and 2k + 1
   for (const auto& s : matrix) {
-    datasets.push_back(validation_suite::loadSequence(s, o.out_dir));
-    if (datasets.back().ground_truth.empty())
-      throw std::runtime_error(datasets.back().root + ": no ground truth to validate against");
+    // A real recording runs with the rig profile kept beside it (what its vehicle's user would
+    // pass with --config): the suite judges the odometry on that rig, not the AUV defaults on a car.
+    const fs::path profile = fs::path(s.dir) / "rig_profile.yaml";
+    params.push_back(!s.dir.empty() && fs::is_regular_file(profile) ? config::loadOdometryParamsFile(profile.string())
+                                                                     : base);
     for (const char* mode : modes) {
       ValidationRow r;
       r.sequence = s;
@@ -176,6 +179,17 @@ std::vector<ValidationRow> runValidation(const ValidationOptions& o) {
       rows.push_back(r);
     }
   }
+  // Rendering is deterministic per sequence: `jobs` sequences at a time, each in its own slot.
+  datasets.resize(matrix.size());
+  for (std::size_t first = 0; first < matrix.size(); first += static_cast<std::size_t>(o.jobs)) {
+    std::vector<std::future<void>> batch;
+    for (std::size_t k = first; k < std::min(matrix.size(), first + static_cast<std::size_t>(o.jobs)); ++k)
+      batch.push_back(std::async(std::launch::async,
+                                 [&, k] { datasets[k] = validation_suite::loadSequence(matrix[k], o.out_dir); }));
+    for (auto& f : batch) f.get();
+  }
+  for (const auto& ds : datasets)
+    if (ds.ground_truth.empty()) throw std::runtime_error(ds.root + ": no ground truth to validate against");
   // Every run is independent and deterministic: they go on `jobs` threads at a time and land
   // in their own slot, so the table does not depend on the order they finish in.
   struct Job {
@@ -196,7 +210,8 @@ std::vector<ValidationRow> runValidation(const ValidationOptions& o) {
         ValidationRow& r = rows[j.row];
         const drivers::Dataset& ds = datasets[j.row / 2];
         const auto max_frames = static_cast<std::size_t>(std::max(0, r.sequence.frames));
-        (j.imu ? r.imu : r.no_imu) = validation_suite::runOne(ds, base, r.mode, j.imu, r.sequence.preset.empty() ? max_frames : 0);
+        (j.imu ? r.imu : r.no_imu) =
+            validation_suite::runOne(ds, params[j.row / 2], r.mode, j.imu, r.sequence.preset.empty() ? max_frames : 0);
         spdlog::info("bench validate: {} {} {}: mean {:.3f} %, final {:.3f} %", r.sequence.name, r.mode,
                      j.imu ? "imu" : "no imu", (j.imu ? r.imu : r.no_imu).mean_error_pct,
                      (j.imu ? r.imu : r.no_imu).final_error_pct);
