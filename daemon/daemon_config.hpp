@@ -120,7 +120,7 @@ struct DaemonConfig {
   /// at the frame time) unless the newest sample is at most this much older than the frame
   /// [ms]; then the odometry holds that sample's rates up to the frame time. 0 = always wait
   /// (deterministic replay: the same IMU hand-over as `seavio run`). Live with a 200 Hz IMU,
-  /// 5 saves up to 5 ms of every frame's latency (cost in docs/benchmarks.md).
+  /// 5 saves up to 5 ms of every frame's latency (cost in git history of docs/benchmarks.md).
   int imu_hold_ms = 0;
   /// Odometry mode global only: run the global step (revisit re-observation, ICP against the
   /// map, keyframe insertion) on its own thread. The local pose of every frame goes

@@ -25,7 +25,7 @@ struct FeatureCountControllerParams {
   /// `target_count` features and is unchanged; on the full 1 Hz survey it halved the
   /// horizontal error, and with the tilt part of the rotation prior from the
   /// accelerometer-bias filter (OdometryParams::gyro_bias_prior_tilt_from_filter) without
-  /// the vertical it cost alone (docs/benchmarks.md). At 1 Hz ~2x the CPU per frame.
+  /// the vertical it cost alone (git history of docs/benchmarks.md). At 1 Hz ~2x the CPU per frame.
   int target_inliers = 450;
   int max_count = 3000;            ///< most features per image when chasing matches or inliers
   /// Proportional gain in log space: log t += gain * log(observed / target). The count of a

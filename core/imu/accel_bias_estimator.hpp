@@ -37,7 +37,7 @@ struct AccelBiasParams {
   double bias_random_walk_m_s2_sqrt_s = 3e-3;   ///< bias drift [m/s^2/sqrt(s)] (the IMU's random walk)
   /// Roll/pitch drift of the visual chain [rad/sqrt(s)]: how fast the filter lets the tilt
   /// error change between updates, against the bias. What is left once the gyro bias is a
-  /// state (1e-3 without: docs/benchmarks.md).
+  /// state (1e-3 without: git history of docs/benchmarks.md).
   double tilt_random_walk_rad_sqrt_s = 2e-4;
   /// Error of one visual velocity at a window's ends [m/s] (a frame's relative-position error
   /// over its interval).
@@ -50,7 +50,7 @@ struct AccelBiasParams {
   /// Also estimate the horizontal gyro bias (body x, y; states 7-8): a gyro bias error turns
   /// the chain's tilt steadily (eps' = (R dbg)_xy), which a tilt random walk can only follow by
   /// being large, and a large walk lets the tilt absorb what each turn shows of the
-  /// accelerometer bias (docs/benchmarks.md: the first turn left the full survey's
+  /// accelerometer bias (git history of docs/benchmarks.md: the first turn left the full survey's
   /// bias 0.004-0.021 m/s^2 off, the second lane pitched 4 mrad). The caller adds
   /// gyroBiasCorrection() to its gyro bias after each update; the gravity tilt-rate observer,
   /// which estimated the same thing apart, is then not run (OdometryParams).

@@ -85,7 +85,7 @@ void normalizeIllumination(const cv::Mat& in, cv::Mat& out, const IlluminationPa
 /// opening (erode then dilate) with a disc wider than the dots removes them and leaves the
 /// larger floor texture and dark structure alone. It flattens the floor's own fine bright
 /// texture too, which costs heading (1 Hz, 300 frames of six surveys: 133 urad per step on
-/// clear water with the opening, 98 with only the dots opened; docs/benchmarks.md).
+/// clear water with the opening, 98 with only the dots opened; git history of docs/benchmarks.md).
 /// So by default only the dots take the opening: pixels near one more than `dot_dn` above it;
 /// the rest keep up to `keep_dn` above it (255: untouched; 0: the plain opening).
 struct SnowFilterParams {

@@ -1037,7 +1037,7 @@ Eigen::Matrix3d Odometry::gyroBiasRotationCovariance(const Eigen::Matrix3d& R_B_
   // gyro_bias_vision_tilt_weight 0). Gravity pins them within a leg (5e-5 rad/s), well below the
   // floor the heading keeps; the floor on them let a 1 Hz step's prior-free pitch, which trades
   // with surge over a flat floor (paper III-C) and has a mean of ~3e-4 rad per step, into
-  // the attitude (docs/benchmarks.md).
+  // the attitude (git history of docs/benchmarks.md).
   Eigen::Matrix3d cov_B = Eigen::Matrix3d::Identity() * gyro_bias_sigma_rad_s_ * gyro_bias_sigma_rad_s_;
   cov_B.topLeftCorner<2, 2>() = accel_bias_.gyroBiasCovariance();
   return R_B_R0.transpose() * cov_B * R_B_R0 * (dt_s * dt_s);

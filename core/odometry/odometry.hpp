@@ -93,7 +93,7 @@ struct OdometryParams {
   bool patch_refinement = true;
   /// With patch_refinement: every temporal match is refined, not only RANSAC's inliers, and
   /// the inliers are re-selected under RANSAC's motion from the refined pixels. At 1 Hz over
-  /// half the matches miss the threshold by SURF's localisation noise alone (docs/benchmarks.md,
+  /// half the matches miss the threshold by SURF's localisation noise alone (git history of docs/benchmarks.md,
   /// "Inliers re-selected after patch refinement").
   bool patch_reselect = true;
   /// Re-select only when RANSAC found at least this many inliers: a motion from fewer is
@@ -127,7 +127,7 @@ struct OdometryParams {
   /// Fraction of the visual gyro-bias residual applied per frame (at gyro_bias_gain_interval_s).
   /// With the accelerometer-bias filter holding the tilt, 0.02 follows the bias walk of the
   /// full 1 Hz paper-plain survey more closely and is neutral on the 10 Hz short surveys
-  /// (docs/benchmarks.md).
+  /// (git history of docs/benchmarks.md).
   double gyro_bias_gain = 0.02;
   /// Frame interval at which gyro_bias_gain holds [s]; at other intervals the gain per frame
   /// scales with sqrt(interval / this). A steady-state Kalman gain for a random-walk bias is
@@ -159,7 +159,7 @@ struct OdometryParams {
   /// which shrinks as gravity shows the tilt they turn (~5e-5 rad/s within a leg), the heading
   /// with gyro_bias_sigma's. Off: gyro_bias_sigma on all three axes, whatever the filter
   /// knows. On: with the feature controller's inlier target the 1 Hz vertical error doubles
-  /// without it (docs/benchmarks.md); a tighter floor on all axes instead (6e-5) costs the
+  /// without it (git history of docs/benchmarks.md); a tighter floor on all axes instead (6e-5) costs the
   /// 10 Hz tilt.
   bool gyro_bias_prior_tilt_from_filter = true;
   /// Tilt rates of the gyro bias from gravity (core/imu/gravity_bias_observer.hpp): the change,
@@ -168,7 +168,7 @@ struct OdometryParams {
   /// accelerometer bias cancels). 0 = off; not run with accel_bias_estimation and
   /// accel_bias.gyro_bias_states, which estimate the same rates in one filter. 1 s at 10 Hz:
   /// short surveys' tilt drift follows twice as closely as with 2 s windows, and 4 s lost on 18
-  /// of 20 (docs/benchmarks.md, "Tilt-rate windows").
+  /// of 20 (git history of docs/benchmarks.md, "Tilt-rate windows").
   double gyro_bias_gravity_window_s = 1.0;
   /// ...and at least this many frame intervals: at 1 Hz a window is then 2 s (a one-frame
   /// window is too noisy: it raises the 0.1-scale plain surveys' error).
@@ -212,7 +212,7 @@ struct OdometryParams {
   /// and white noise of the bias come from the IMU's noise model, not from these params.
   /// On by default, with accel_bias_start_frame: it lowers the full paper-plain survey's error
   /// and leaves the 10 Hz short surveys unchanged; without the start-up frame it costs those
-  /// (docs/benchmarks.md).
+  /// (git history of docs/benchmarks.md).
   bool accel_bias_estimation = true;
   imu::AccelBiasParams accel_bias;
   /// With accel_bias_estimation: publish in the start-up frame. Levelling on the biased
@@ -237,7 +237,7 @@ struct OdometryParams {
   /// ICP against a few metres of floor are worth mrad; gravity holds them better, and a
   /// revisit leg corrected on every frame would otherwise leave the filter blind for the
   /// whole leg. On: on the full paper-plain survey it about halves the tilt error and leaves
-  /// the position unchanged (docs/benchmarks.md).
+  /// the position unchanged (git history of docs/benchmarks.md).
   bool map_keeps_tilt = true;
   /// Global mode, re-observation (paper III-D: the map bounds the drift when the survey comes
   /// back over older ground): descriptors of a keyframe are kept every this much travel [m]...

@@ -83,7 +83,7 @@ TEST(GlobalMap, ReobservesTheFirstLegWhenComingBackOverIt) {
 // plain global stays under the goal of 0.03 % of distance. Seeds 19 / 29 / 37:
 // global / local 0.64 / 0.67 / 0.57 plain, 0.67 / 0.81 / 0.57 snow. (At 320 x 240 snow's
 // error is ~5 x plain's, at the full 640 x 480 1.14 x: the accuracy figures are taken there,
-// docs/benchmarks.md.)
+// git history of docs/benchmarks.md.)
 TEST(GlobalMap, BeatsLocalOnPlainAndSnowPaperSurveysAtATenth) {
   tools::PaperBenchOptions o;
   o.scale = 0.1;

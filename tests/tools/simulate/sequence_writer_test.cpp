@@ -179,7 +179,7 @@ TEST_F(SimulateCli, RippleAmplitudeZeroRendersAFloorWithoutSandRipples) {
 
 TEST_F(SimulateCli, StillStartHoldsTheVehicleAtRestForTheGivenTime) {
   // The still start is where the odometry learns the gyro bias (core/odometry/odometry.cpp):
-  // how long it lasts sets the start-up heading error (docs/benchmarks.md).
+  // how long it lasts sets the start-up heading error (git history of docs/benchmarks.md).
   const std::string args = "short-plain --frames 8 --frame-rate 1 --width 64 --seed 3 ";
   ASSERT_EQ(render("default", args), 0);
   ASSERT_EQ(render("long", args + "--still-s 5"), 0);
@@ -243,7 +243,7 @@ TEST_F(SimulateCli, ImuLeadStreamsTheParkedVehicleBeforeTheFirstFrame) {
   // A real IMU streams before the camera's first frame, and the odometry levels itself on the
   // second before it (Odometry::initialise). Without the lead it had one sample: a tilt error of
   // the accelerometer's full white noise, which a first-pose-aligned evaluation then charges to
-  // every later correction of the tilt (docs/benchmarks.md).
+  // every later correction of the tilt (git history of docs/benchmarks.md).
   const std::string args = "short-plain --frames 4 --width 64 --seed 3 ";
   ASSERT_EQ(render("lead", args), 0);
   ASSERT_EQ(render("none", args + "--imu-lead-s 0"), 0);
