@@ -102,6 +102,7 @@ TEST(SafeDecode, StageCountOffsetsMatchTheEncodedTypes) {
   status.stage_names = {"x", "y"};
   status.p50_ms = {1, 2};
   status.p99_ms = {3, 4};
+  status.deadline_misses = {0, 0};
   const auto st = encode(status);
   EXPECT_EQ((st[kStatusStageCountAt] << 8) | st[kStatusStageCountAt + 1], 2);
   EXPECT_EQ(st[kStatusStageCountAt + 2 + 3], 2);
@@ -115,6 +116,7 @@ TEST(SafeDecode, MinimumStringLengthInStatusIsAFailure) {
   status.stage_names = {"features"};
   status.p50_ms = {1};
   status.p99_ms = {2};
+  status.deadline_misses = {0};
   auto st = encode(status);
   putBigEndianI32(st, seavio::drivers::detail::kStatusStageCountAt + 2, INT32_MIN);
   seavio_lcm::status_t out{};

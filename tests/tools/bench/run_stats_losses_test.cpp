@@ -77,7 +77,7 @@ TEST(RunStatsLosses, TheTableAndTheJsonCarryTheCounts) {
   EXPECT_NE(s.find("\"losses\": {\"imu_only_frames\": 7, \"outages\": 3, \"bare\": {\"frames\": 1, \"outages\": 1}, "
                    "\"handover_fit\": {\"frames\": 0, \"outages\": 0}, \"agreed_leak\": {\"frames\": 3, \"outages\": 1}, "
                    "\"covariance_only\": {\"frames\": 2, \"outages\": 1}, \"no_imu\": {\"frames\": 0, \"outages\": 0}, "
-                   "\"held\": {\"frames\": 1, \"outages\": 0}}"),
+                   "\"held\": {\"frames\": 1, \"outages\": 0}, \"refused\": {"),
             std::string::npos)
       << s.substr(0, 800);
   std::size_t agreed = 0, none = 0;
