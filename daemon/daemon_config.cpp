@@ -1,5 +1,7 @@
 #include "daemon/daemon_config.hpp"
 
+#include "daemon/cpu_list.hpp"
+
 #include <fstream>
 #include <set>
 #include <sstream>

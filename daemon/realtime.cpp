@@ -162,45 +162,6 @@ SchedulingOutcome applyThreadRole(ThreadRole role, const RealtimeConfig& config,
   return out;
 }
 
-bool parseCpuList(const std::string& text, std::vector<int>& cpus, std::string& error) {
-  cpus.clear();
-  std::size_t i = 0;
-  const long n_cpus = sysconf(_SC_NPROCESSORS_CONF);
-  auto number = [&](int& v) {
-    std::size_t used = 0;
-    try {
-      v = std::stoi(text.substr(i), &used);
-    } catch (const std::exception&) {
-      return false;
-    }
-    i += used;
-    return v >= 0;
-  };
-  while (i < text.size()) {
-    int a = 0, b = 0;
-    if (!number(a)) break;
-    b = a;
-    if (i < text.size() && text[i] == '-') {
-      ++i;
-      if (!number(b) || b < a) break;
-    }
-    for (int c = a; c <= b; ++c) cpus.push_back(c);
-    if (i == text.size()) {
-      for (int c : cpus) {
-        if (c >= CPU_SETSIZE || (n_cpus > 0 && c >= n_cpus)) {
-          error = "CPU " + std::to_string(c) + " does not exist (this machine has " + std::to_string(n_cpus) + ")";
-          return false;
-        }
-      }
-      return true;
-    }
-    if (text[i] != ',') break;
-    ++i;
-  }
-  error = "'" + text + "' is not a CPU list like 0,2-3";
-  return false;
-}
-
 SchedulingOutcome lockAllMemory() {
   SchedulingOutcome out;
   // MCL_ONFAULT: a page is locked when first touched instead of every mapping being faulted

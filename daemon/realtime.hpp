@@ -55,9 +55,6 @@ struct SchedulingOutcome {
 /// nothing), background = SCHED_BATCH at `background_nice`. `thread` names it in messages.
 SchedulingOutcome applyThreadRole(ThreadRole role, const RealtimeConfig& config, const std::string& thread);
 
-/// Parses a CPU list "0,2-3" (the config's form); false with `error` on a bad list.
-bool parseCpuList(const std::string& text, std::vector<int>& cpus, std::string& error);
-
 /// mlockall(MCL_CURRENT | MCL_FUTURE); the message names the limit when refused.
 SchedulingOutcome lockAllMemory();
 

@@ -16,7 +16,7 @@ namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 
 namespace {
-constexpr auto kPoll = 50ms;
+constexpr auto kWriterPoll = 50ms;
 constexpr auto kRetryAfterFailure = 1s;
 /// lcm log event header: sync word, event number, timestamp, channel and data lengths.
 constexpr std::size_t kEventHeaderBytes = 4 + 8 + 8 + 4 + 4;
@@ -125,7 +125,7 @@ void Recorder::writerLoop() {
   for (;;) {
     const bool stopping = stop_;
     Item item;
-    if (!ring_.popWaitFor(item, kPoll)) {
+    if (!ring_.popWaitFor(item, kWriterPoll)) {
       if (stopping) break;  // the estimator has stopped: nothing comes after an empty ring
       continue;
     }

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "daemon/daemon_config.hpp"
+#include "daemon/cpu_list.hpp"
 #include "daemon/realtime.hpp"
 
 namespace seavio::daemon {

@@ -26,6 +26,8 @@
 #include "tools/log_replay.hpp"
 #include "tools/simulate/sequence_writer.hpp"
 
+#include "tests/tools/replay/run_directly.hpp"
+
 namespace seavio::tools {
 namespace {
 
@@ -162,24 +164,6 @@ TEST(RecordReplay, ReplayOfARecordedLiveRunGivesThePosesItPublishedBitForBit) {
   EXPECT_GE(visual, static_cast<int>(live_poses.size()) / 2);
 }
 
-/// Core odometry over the dataset with `seavio run`'s IMU hand-over.
-std::vector<OdometryResult> runDirectly(const drivers::Dataset& ds) {
-  std::string error;
-  auto rect = camera::StereoRectifier::create(ds.calibration, &error);
-  EXPECT_TRUE(rect) << error;
-  odometry::Odometry odo(std::move(*rect), ds.imu_noise, odometry::OdometryParams{}, {});
-  std::vector<OdometryResult> out;
-  std::size_t cursor = 0;
-  for (std::size_t i = 0; i < ds.frames.size(); ++i) {
-    const StereoFrame frame = drivers::loadFrame(ds, i);
-    const std::size_t begin = cursor > 0 ? cursor - 1 : 0;
-    while (cursor < ds.imu.size() && ds.imu[cursor].t_ns <= frame.t_ns) ++cursor;
-    const std::size_t end = std::min(ds.imu.size(), cursor + 1);
-    out.push_back(odo.process(frame, std::span<const ImuSample>(ds.imu.data() + begin, end - begin)));
-  }
-  return out;
-}
-
 TEST(RecordReplay, StampOrderedLogReplaysToSeavioRunsPosesWithTheCalibrationFromTheLog) {
   constexpr int kFrames = 30;
   Simulated s("replay_stamp_order", kFrames);
@@ -189,7 +173,7 @@ TEST(RecordReplay, StampOrderedLogReplaysToSeavioRunsPosesWithTheCalibrationFrom
   const LogReplayResult r = replayLog(o);
   ASSERT_TRUE(r.ok()) << r.error;
   EXPECT_FALSE(r.consumed_order);
-  const std::vector<OdometryResult> ref = runDirectly(s.ds);
+  const std::vector<OdometryResult> ref = testing_support::runDirectly(s.ds);
   std::vector<seavio_lcm::pose_t> want;
   for (std::size_t i = 0; i < ref.size(); ++i)
     want.push_back(drivers::toPoseMsg(ref[i], i < r.poses.size() ? r.poses[i].publish_t_ns : 0));

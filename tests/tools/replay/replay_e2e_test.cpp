@@ -19,28 +19,12 @@
 #include "tools/profile_report.hpp"
 #include "tools/simulate/sequence_writer.hpp"
 
+#include "tests/tools/replay/run_directly.hpp"
+
 namespace seavio::tools {
 namespace {
 
 using namespace std::chrono_literals;
-
-/// Core odometry over the dataset with `seavio run`'s IMU hand-over.
-std::vector<OdometryResult> runDirectly(const drivers::Dataset& ds) {
-  std::string error;
-  auto rect = camera::StereoRectifier::create(ds.calibration, &error);
-  EXPECT_TRUE(rect) << error;
-  odometry::Odometry odo(std::move(*rect), ds.imu_noise, odometry::OdometryParams{}, {});
-  std::vector<OdometryResult> out;
-  std::size_t cursor = 0;
-  for (std::size_t i = 0; i < ds.frames.size(); ++i) {
-    const StereoFrame frame = drivers::loadFrame(ds, i);
-    const std::size_t begin = cursor > 0 ? cursor - 1 : 0;
-    while (cursor < ds.imu.size() && ds.imu[cursor].t_ns <= frame.t_ns) ++cursor;
-    const std::size_t end = std::min(ds.imu.size(), cursor + 1);
-    out.push_back(odo.process(frame, std::span<const ImuSample>(ds.imu.data() + begin, end - begin)));
-  }
-  return out;
-}
 
 TEST(ReplayEndToEnd, DaemonFromLcmLogGivesTheSamePosesAsSeavioRun) {
   simulate::test::ScratchDir dir("replay_e2e");
@@ -78,7 +62,7 @@ TEST(ReplayEndToEnd, DaemonFromLcmLogGivesTheSamePosesAsSeavioRun) {
   const DaemonOutputLog log = readDaemonOutputLog(out);
   EXPECT_FALSE(log.stats.damaged());
   ASSERT_EQ(log.poses.size(), 30u);
-  const std::vector<OdometryResult> ref = runDirectly(ds);
+  const std::vector<OdometryResult> ref = testing_support::runDirectly(ds);
   ASSERT_EQ(ref.size(), 30u);
   for (std::size_t i = 0; i < 30; ++i) {
     const seavio_lcm::pose_t& got = log.poses[i].msg;
