@@ -38,7 +38,7 @@ class MonotonicRing {
     const auto deadline = std::chrono::steady_clock::now() + timeout;
     for (;;) {
       producer_waiting_.store(true);
-      std::atomic_thread_fence(std::memory_order_seq_cst);  // flag before the room check
+      order_.fetch_add(1, std::memory_order_seq_cst);  // flag before the room check (see order_)
       if (tryPush(std::move(item))) {
         producer_waiting_.store(false);
         return true;
@@ -70,7 +70,7 @@ class MonotonicRing {
   /// the producer gave for it).
   bool take(T& out) {
     const bool ok = q_.try_dequeue(out);
-    std::atomic_thread_fence(std::memory_order_seq_cst);  // room made before the flag check
+    order_.fetch_add(1, std::memory_order_seq_cst);  // room made before the flag check (see order_)
     if (producer_waiting_.exchange(false)) slots_.signal();
     return ok;
   }
@@ -79,6 +79,10 @@ class MonotonicRing {
   MonotonicSemaphore items_;
   MonotonicSemaphore slots_;
   std::atomic<bool> producer_waiting_{false};
+  /// Both sides' read-modify-writes on this one atomic are totally ordered, so whichever comes
+  /// second sees what the other stored before its own: the store-then-check pairs above cannot
+  /// both miss (a seq_cst fence does the same, but GCC's TSan cannot check fences).
+  std::atomic<uint64_t> order_{0};
 };
 
 /// Ring whose push never blocks and never loses silently: a push into a full ring fails
