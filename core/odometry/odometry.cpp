@@ -29,6 +29,43 @@ Matrix6d relativeCovariance(const imu::Matrix9d& P) {
   return C;
 }
 
+/// The inertial estimator's predicted motion as a body transform (previous <- current).
+Eigen::Isometry3d bodyMotion(const imu::RelativeMotion& m) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = m.R_prev_curr;
+  T.translation() = m.p_prev_curr;
+  return T;
+}
+
+/// A vision-only motion against the reference (keyframe or previous frame), as the inertial
+/// estimator's measurement between the previous frame's body pose and the current one.
+/// `T_prev_ref` (rig frames) carries it from the reference to the previous frame; its error is
+/// the keyframe's shared one, so frames through one keyframe telescope and the filter, which
+/// takes each increment with the whole covariance, errs on the cautious side.
+imu::RelativeMotion visionMotionSincePrevious(const MotionRefinementResult& vision, const Eigen::Isometry3d& T_prev_ref,
+                                              const Eigen::Isometry3d& T_B_R0) {
+  // Left perturbation in the reference camera -> in the previous camera: the adjoint of T_prev_ref.
+  Matrix6d Ad = Matrix6d::Zero();
+  Ad.topLeftCorner<3, 3>() = T_prev_ref.rotation();
+  Ad.bottomRightCorner<3, 3>() = T_prev_ref.rotation();
+  Ad.bottomLeftCorner<3, 3>() = se3::skew(T_prev_ref.translation()) * T_prev_ref.rotation();
+  const Eigen::Isometry3d T_prev_curr = T_prev_ref * vision.T_prev_curr;
+  imu::RelativeMotion z;
+  const Eigen::Isometry3d T_B = T_B_R0 * T_prev_curr * T_B_R0.inverse();
+  z.R_prev_curr = T_B.rotation();
+  z.p_prev_curr = T_B.translation();
+  z.covariance = imu::cameraToBodyMotionCovariance(Ad * vision.covariance * Ad.transpose(), T_prev_curr, T_B_R0);
+  return z;
+}
+
+/// Keyframe tracking: the rotation a gyro-bias error of covariance `Pbg_B` [body] turns over
+/// the keyframe's span before this interval (this interval's is in the prediction), in the rig.
+Eigen::Matrix3d keyframeBiasCovariance(const Eigen::Matrix3d& Pbg_B, const Eigen::Matrix3d& R_B_R0, double dt_s,
+                                       double dt_ref_s) {
+  const double span2 = std::max(0.0, dt_ref_s * dt_ref_s - dt_s * dt_s);
+  return R_B_R0.transpose() * Pbg_B * R_B_R0 * span2;
+}
+
 /// A re-observation's covariance update (GlobalCorrection: scale, then position variance added).
 void shrinkCovariance(Matrix6d& P, double scale, double added_position_variance_m2) {
   P *= scale;
@@ -142,6 +179,11 @@ Odometry::Odometry(camera::StereoRectifier rectifier, const imu::ImuNoise& imu_n
       deferred_(params.mode == Mode::kGlobal &&
                 (params.global_delivery == GlobalDelivery::kDeferred || params.global_link != nullptr)),
       rng_(params.seed),
+      filter_([&] {
+        imu::ErrorStateParams e = params.inertial;
+        e.noise = imu_noise;
+        return e;
+      }()),
       accel_bias_([&] {
         imu::AccelBiasParams a = params.accel_bias;
         a.bias_random_walk_m_s2_sqrt_s = imu_noise.accelerometer_random_walk;
@@ -267,6 +309,7 @@ void Odometry::initialise(const FrameFeatures& frame, std::span<const ImuSample>
   state_covariance_.block<3, 3>(3, 3) =
       Eigen::Matrix3d::Identity() * params_.initial_velocity_sigma_m_s * params_.initial_velocity_sigma_m_s;
   pose_covariance_ = Matrix6d::Identity() * 1e-12;
+  if (params_.prediction == Prediction::kImu) filter_.start(frame.t_ns, imu);
   accel_bias_.reset(state_.T_W_B.rotation(), imu::attitudeFromAccelerometer(recent, 0.2).has_value(),
                     params_.attitude_sigma_rad, gyro_bias_sigma_rad_s_);
   published_p_W_ = published_from_p_W_ = state_.T_W_B.translation();  // the start-up frame's anchor
@@ -336,11 +379,15 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   imu::ImuPropagation pred;
   Eigen::Isometry3d T_prev_curr_pred;  // rectified left camera, previous <- current
   Matrix6d pred_cov;
+  // The inertial estimator's motion since the last frame, with its covariance (gyro noise,
+  // velocity, tilt and bias uncertainty as the filter holds them), is the prediction.
+  if (filter_.started()) filter_.propagate(imu_buffer_, frame.t_ns);
   if (have_imu) {
     pred = imu::propagate(state_, start_cov, imu_buffer_, frame.t_ns, imu_noise_);
     pred.state.T_W_B = orthonormalized(pred.state.T_W_B);
-    T_prev_curr_pred = orthonormalized((state_.T_W_B * T_B_R0).inverse() * (pred.state.T_W_B * T_B_R0));
-    pred_cov = relativeCovariance(pred.covariance);
+    const imu::RelativeMotion m = filter_.predictedMotion();
+    T_prev_curr_pred = orthonormalized(T_B_R0.inverse() * bodyMotion(m) * T_B_R0);
+    pred_cov = imu::bodyToCameraMotionCovariance(m.covariance, T_prev_curr_pred, T_B_R0);
   } else {
     // No IMU (KITTI, IMU outage, or vision-only by choice): constant-velocity prediction,
     // loosely trusted.
@@ -380,16 +427,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     ref_gyro_cov = keyframe_->gyro_covariance;
     dt_ref_s = 1e-9 * static_cast<double>(frame.t_ns - keyframe_->t_ns);
   }
-  // The windows are centred on the prediction moved by its systematic miss, measured at the
-  // last visual fix (prediction_innovation.hpp: the 1 Hz survey's gravity leak).
-  const Eigen::Vector3d match_offset_W =
-      have_imu ? prediction_innovation_.offset(dt_s, std::sqrt(std::max(0.0, pred_cov.bottomRightCorner<3, 3>().trace())))
-               : Eigen::Vector3d::Zero();
-  const auto windowCentre = [&] {
-    Eigen::Isometry3d T = T_ref_curr_pred;
-    T.translation() += T_W_ref.rotation().transpose() * match_offset_W;
-    return T;
-  };
+  const auto windowCentre = [&] { return T_ref_curr_pred; };
   std::vector<matching::TemporalMatch>& temporal = work_.temporal;
   matching::matchTemporal(*ref_features, frame.stereo, rig, windowCentre(), pred_cov, params_.temporal,
                           work_.temporal_ws, temporal);
@@ -517,8 +555,9 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     // Relative rotation noise only: the absolute attitude uncertainty carried in the start
     // covariance passes through the short propagation unchanged (F ~ I) and is removed.
     // Since a keyframe, the gyro's white noise adds up per interval, its bias error with time.
-    prior.covariance = ref_gyro_cov + pred_cov.topLeftCorner<3, 3>() - start_cov.topLeftCorner<3, 3>() +
-                       gyroBiasRotationCovariance(T_B_R0.rotation(), dt_ref_s);
+    prior.covariance = ref_gyro_cov + pred_cov.topLeftCorner<3, 3>() +
+                       keyframeBiasCovariance(filter_.covariance().block<3, 3>(imu::kEsBg, imu::kEsBg),
+                                              T_B_R0.rotation(), dt_s, dt_ref_s);
     const MotionRefinementResult refined =
         refineMotion(rig, quads, ransac.inliers, T_prev_curr, prior, params_.refinement, work_.refinement);
     if (refined.ok) {
@@ -534,12 +573,16 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   // Per keyframe (gyro_bias_per_keyframe): only the frame that ends the keyframe's span learns,
   // below, once the keyframe decision is made.
   const bool bias_per_keyframe = params_.gyro_bias_per_keyframe && kf_usable;
-  if (vision_ok && have_imu && params_.gyro_bias_gain > 0 && !bias_per_keyframe) {
-    const MotionRefinementResult alone =
-        refineMotion(rig, quads, ransac.inliers, ransac.T_prev_curr, RotationPrior{}, params_.refinement,
-                     work_.refinement);
-    if (alone.ok) R_ref_curr_vision = alone.T_prev_curr.rotation();
+  // The same vision-only motion is the inertial estimator's measurement: the prior-refined one
+  // would feed the gyro back to the filter as if vision had seen it.
+  std::optional<MotionRefinementResult> vision_alone;
+  if (vision_ok && have_imu) {
+    vision_alone = refineMotion(rig, quads, ransac.inliers, ransac.T_prev_curr, RotationPrior{}, params_.refinement,
+                                work_.refinement);
+    if (!vision_alone->ok) vision_alone.reset();
   }
+  if (vision_alone && params_.gyro_bias_gain > 0 && !bias_per_keyframe)
+    R_ref_curr_vision = vision_alone->T_prev_curr.rotation();
   Eigen::Isometry3d T_W_R0 = T_W_ref * T_prev_curr;
   // Tensor stage = RANSAC (and its fallbacks) plus the four-view refinements (paper III-C).
   r.times.tensor_ms += timer.lap_ms();
@@ -615,6 +658,16 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     }
   }
 
+  // The inertial estimator takes the vision-only motion since the previous frame; a motion its
+  // gate refuses is not used for the pose either (the frame coasts, flagged).
+  if (filter_.started()) {
+    if (vision_ok && vision_alone) {
+      const imu::RelativeMotion z = visionMotionSincePrevious(*vision_alone, prev.T_W_R0.inverse() * T_W_ref, T_B_R0);
+      if (filter_.update(z) == imu::UpdateOutcome::kRefused) vision_ok = false;
+    }
+    filter_.clonePose();
+  }
+
   // The state at the start of the interval, for the gravity tilt observation below.
   const Eigen::Vector3d v_start_W = state_.v_W;
   const Eigen::Matrix3d R_start_W_B = state_.T_W_B.rotation();
@@ -672,10 +725,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     if (have_imu) {
       // Vision minus prediction, map corrections excluded: both the windows and the leak read it.
       const Eigen::Vector3d innovation_W = T_W_B.translation() - map_shift_W - pred.state.T_W_B.translation();
-      prediction_innovation_.observe(innovation_W, dt_s);
       coasting_leak_.fix(innovation_W, dt_s, frame.t_ns);
     } else {
-      prediction_innovation_.reset();
       coasting_leak_.reset();
     }
     coasting_.stop();
@@ -759,13 +810,6 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     r.coasting = have_imu ? coasting_correction_ : CoastingCorrection::kNoImu;
     r.refusal = refusal;
     handover_.reset();
-    if (coasting_leak_applied_ && have_imu) {
-      // The corrected coasting leaves the velocity without the fix's lag, so the next
-      // prediction misses by the leak's dt^2 / 2 only, not k times the last fix's miss.
-      prediction_innovation_.coastCorrected(0.5 * coasting_.accelerationCorrection() * dt_s * dt_s, dt_s);
-    } else {
-      prediction_innovation_.coast();
-    }
     coasting_leak_.coast();
   }
   // While the vehicle still holds still after start-up, every interval refines the gyro bias.
@@ -794,7 +838,6 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     r.coasting = CoastingCorrection::kHeld;
     r.refusal = {Refusal::kNonFinite, 0, 0};
     handover_.reset();
-    prediction_innovation_.reset();
     coasting_leak_.reset();
   }
   last_motion_ = prev.T_W_R0.inverse() * T_W_R0;
@@ -888,7 +931,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     if (on_keyframe && r.source == PoseSource::kVision) ++keyframe_->frames_tracked;
     if (keep) {
       keyframe_->R_kf_prev_gyro = R_ref_curr_gyro;
-      keyframe_->gyro_covariance = ref_gyro_cov + pred_cov.topLeftCorner<3, 3>() - start_cov.topLeftCorner<3, 3>();
+      keyframe_->gyro_covariance = ref_gyro_cov + pred_cov.topLeftCorner<3, 3>();
     } else {
       if (bias_per_keyframe && on_keyframe && r.source == PoseSource::kVision && have_imu && !still_start_ &&
           params_.gyro_bias_gain > 0 && dt_ref_s > 1e-6) {

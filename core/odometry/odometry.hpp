@@ -18,6 +18,7 @@
 #include "core/imu/coasting_covariance.hpp"
 #include "core/imu/coasting_handover.hpp"
 #include "core/imu/coasting_leak.hpp"
+#include "core/imu/error_state_filter.hpp"
 #include "core/imu/gravity_bias_observer.hpp"
 #include "core/imu/imu_integrator.hpp"
 #include "core/map/frame_map.hpp"
@@ -26,7 +27,6 @@
 #include "core/odometry/guided_tracks.hpp"
 #include "core/matching/patch_alignment.hpp"
 #include "core/odometry/motion_refinement.hpp"
-#include "core/odometry/prediction_innovation.hpp"
 #include "core/odometry/rig_profile.hpp"
 
 namespace seavio::odometry {
@@ -78,6 +78,10 @@ struct OdometryParams {
   geometry::QuadRansacParams ransac;
   icp::IcpParams icp;
   map::FrameMapParams map;
+  /// The inertial estimator (core/imu/error_state_filter.hpp) whose motion prediction prunes
+  /// the matching and primes RANSAC and the rotation prior (III-A/C), updated by each frame's
+  /// vision-only motion. Its noise model is the IMU's (ImuNoise), whatever `inertial.noise` says.
+  imu::ErrorStateParams inertial;
   bool use_rotation_prior = true;            ///< refine with the gyro rotation as a prior
   /// With upright SURF (features.surf.upright): describe every keypoint along the direction of
   /// the world's x axis in the image, the heading the gyro predicts for the frame, instead of
@@ -308,6 +312,8 @@ class Odometry {
   /// The inline global step's map (empty in deferred mode: the refiner elsewhere holds it).
   const map::FrameMap& frameMap() const { return refiner_.frameMap(); }
   const NavState& state() const { return state_; }
+  /// The inertial estimator: its refusals, IMU faults and spikes are counted there.
+  const imu::ErrorStateFilter& inertial() const { return filter_; }
   /// Tracking keyframes made so far (keyframe_tracking; the local path's references).
   uint64_t keyframesMade() const { return keyframes_made_; }
   /// Global mode: frames whose pose was pulled towards an older keyframe seen again.
@@ -380,8 +386,8 @@ class Odometry {
   bool coasting_leak_applied_ = false;  ///< this outage's coasting is corrected by coasting_leak_
   /// What corrects this outage's coasting (OdometryResult::coasting), set at its first frame.
   CoastingCorrection coasting_correction_ = CoastingCorrection::kBare;
-  /// The IMU prediction's systematic miss, for centring the inter-frame search windows.
-  PredictionInnovation prediction_innovation_;
+  /// The inertial estimator: the motion prediction and its covariance.
+  imu::ErrorStateFilter filter_;
   /// Accelerometer bias and tilt (accel_bias_estimation).
   imu::AccelBiasEstimator accel_bias_;
   Eigen::Vector3d published_p_W_ = Eigen::Vector3d::Zero();  ///< accel_bias_start_frame: last published position

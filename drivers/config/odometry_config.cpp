@@ -226,6 +226,16 @@ void visit(V& v, odometry::OdometryParams& p) {
   });
   v.value("speed_margin", p.speed_margin, 1, 100);
   v.value("gravity_tilt_time_constant_s", p.gravity_tilt_time_constant_s, 0, 1e6);
+  v.section("inertial", [&] {
+    v.value("gyro_bias_sigma_rad_s", p.inertial.gyro_bias_sigma_rad_s, 1e-7, 1);
+    v.value("accel_bias_sigma_m_s2", p.inertial.accel_bias_sigma_m_s2, 1e-6, 10);
+    v.value("initial_velocity_sigma_m_s", p.inertial.initial_velocity_sigma_m_s, 1e-3, 100);
+    v.value("moving_tilt_sigma_rad", p.inertial.moving_tilt_sigma_rad, 1e-4, 1);
+    v.value("gate_chi2", p.inertial.gate_chi2, 1, 1e6);
+    v.value("imu_fault_refusals", p.inertial.imu_fault_refusals, 0, 100000);
+    v.value("gyro_range_rad_s", p.inertial.gyro_range_rad_s, 0.1, 1e4);
+    v.value("accel_range_m_s2", p.inertial.accel_range_m_s2, 1, 1e5);
+  });
   v.section("accel_bias", [&] {
     v.flag("enabled", p.accel_bias_estimation);
     v.value("initial_bias_sigma_m_s2", p.accel_bias.initial_bias_sigma_m_s2, 1e-6, 100);
