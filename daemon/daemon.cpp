@@ -495,7 +495,7 @@ void Daemon::estimate(FrameItem& item) {
   health_.features_right = r.quality.features_right;
   health_.ransac_inliers = r.quality.ransac_inliers;
   health_.icp_inliers = r.quality.icp_inliers;
-  countImuOnly(health_, r);
+  countPose(health_, r);
   health_.frames_processed++;
   PoseItem p{std::move(r), item.recv_ns, t1};
   if (!poses_->pushOrCountOverflow(std::move(p))) health_.poses_dropped++;
@@ -600,13 +600,11 @@ void Daemon::refineJob(GlobalStage::Job& job) {
   } else if (c.icp_ran) {
     health_.global_rejected++;
   }
-  // The refined pose of that frame: the correction is a delta in the chain's W, so it moves
-  // the body pose as it moved the camera's, turned into the frame the local pose was
-  // published in (the start-up frame, odometry accel_bias.start_frame).
+  // The refined pose of that frame: the correction is a delta in W, so it moves the body pose
+  // as it moved the camera's.
   OdometryResult refined = job.request.local;
-  const Eigen::Isometry3d correction_published = odometry::publishedCorrection(job.request, c);
-  refined.T_W_B = correction_published * refined.T_W_B;
-  refined.v_W = correction_published.linear() * refined.v_W;
+  refined.T_W_B = c.correction_W * refined.T_W_B;
+  refined.v_W = c.correction_W.linear() * refined.v_W;
   if (c.revisit_used) {
     refined.covariance *= c.covariance_scale;
     refined.covariance.bottomRightCorner<3, 3>() += Eigen::Matrix3d::Identity() * c.added_position_variance_m2;
@@ -736,8 +734,7 @@ std::string Daemon::summary() const {
     << "  IMU samples " << m.imu_samples << ", overflow " << m.imu_overflow << ", gaps " << m.imu_gaps
     << "; out-of-order " << m.out_of_order << ", duplicates " << m.duplicates << "\n"
     << "  poses published " << health_.poses_published << ", dropped " << health_.poses_dropped
-    << ", IMU-only " << m.imu_only_frames << " (agreed leak " << health_.imu_only_leak_corrected
-    << ", covariance only " << health_.imu_only_covariance_only << "; refused by";
+    << ", IMU faults " << health_.imu_faults << ", IMU-only " << m.imu_only_frames << " (refused by";
   std::array<uint64_t, kRefusalKinds> refused{};
   for (int k = 0; k < kRefusalKinds; ++k) refused[static_cast<std::size_t>(k)] = health_.imu_only_refused[static_cast<std::size_t>(k)];
   for (int k = 1; k < kRefusalKinds; ++k)

@@ -50,11 +50,10 @@ struct HealthCounters {
   std::atomic<uint64_t> processing_failures{0};
   std::atomic<uint64_t> publish_failures{0};
   std::atomic<uint64_t> imu_only_frames{0};
-  /// Of the IMU-only frames: coasted with the leak the last steady fixes agree on,
-  /// and coasted uncorrected with only the covariance widened because they disagreed
-  /// (OdometryResult::coasting; countImuOnly). Not on LCM: status_t keeps its version.
-  std::atomic<uint64_t> imu_only_leak_corrected{0};
-  std::atomic<uint64_t> imu_only_covariance_only{0};
+  /// Frames on which vision and the IMU had disagreed long enough for the IMU to be judged at
+  /// fault (OdometryResult quality.imu_fault; countPose). In the summary; on LCM as the
+  /// pose's FLAG_IMU_FAULT.
+  std::atomic<uint64_t> imu_faults{0};
   /// IMU samples the estimator dropped from its pending buffer: the buffer was full (samples
   /// on another time base, ahead of every frame), or the stream restarted on an earlier
   /// clock and left them ahead of every frame to come.
@@ -96,12 +95,11 @@ struct HealthCounters {
   const LatencyHistogram& at(Stage s) const { return latency[static_cast<int>(s)]; }
 };
 
-/// Counts a published pose that coasted on the IMU, and how its coasting was corrected.
-inline void countImuOnly(HealthCounters& h, const OdometryResult& r) {
+/// Counts a published pose's IMU fault, and a pose that coasted, by the check that refused it.
+inline void countPose(HealthCounters& h, const OdometryResult& r) {
+  if (r.quality.imu_fault) h.imu_faults++;
   if (r.source != PoseSource::kImuOnly) return;
   h.imu_only_frames++;
-  if (r.coasting == CoastingCorrection::kAgreedLeak) h.imu_only_leak_corrected++;
-  if (r.coasting == CoastingCorrection::kCovarianceOnly) h.imu_only_covariance_only++;
   h.imu_only_refused[static_cast<std::size_t>(r.refusal.check)]++;
 }
 

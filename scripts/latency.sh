@@ -25,7 +25,7 @@
 #   --runs      runs per mode (default 3)
 #   --modes     odometry modes (default "local global")
 #   --frames    length of the simulated survey (default 300 = 20 s at 15 fps)
-#   --seed      simulator seed (default 11, untuned)
+#   --seed      simulator seed (default 11, a tuning seed)
 #   --imu-hold-ms  daemon.imu_hold_ms (default 0, the shipped config/seavio.yaml value)
 #   --build     build folder holding bin/seavio and bin/seaviod (default: build)
 #   --work      scratch folder (default: a new /tmp/seavio_latency.XXXXXX); the simulated

@@ -305,7 +305,7 @@ awk -v slope="$rss_slope" -v rf="$rss_first" -v rl="$rss_last" -v leaks="$leaks"
          sprintf("latency growth, undisturbed frames (%d of %d first, %d of %d last): p99 last %d s / first %d s = %.1f / %.1f ms = %.2f < %g (p50 %.1f -> %.1f ms)%s",
                  fqn, fn, lqn, ln, w, w, lq99, fq99, (ok ? lq99 / fq99 : 0), max_ratio, fq50, lq50, (ok ? "" : "; too few undisturbed frames to judge")))
     line(ok && fq99 <= goal && lq99 <= goal,
-         sprintf("issue 8 goal, undisturbed frames: p99 <= %g ms in both windows (%.1f, %.1f ms)", goal, fq99, lq99))
+         sprintf("goal, undisturbed frames: p99 <= %g ms in both windows (%.1f, %.1f ms)", goal, fq99, lq99))
     printf "INFO all frames: p99 first %.1f ms, last %.1f ms (ratio %.2f), p50 %.1f -> %.1f ms\n", f99, l99, (f99 > 0 ? l99 / f99 : 0), f50, l50
     printf "INFO in the first / last window: rival real-time CPU %.1f / %.1f s, seaviod threads waiting for a CPU %.1f / %.1f s, hypervisor steal %.1f / %.1f s\n",
            rf_cpu, rl_cpu, wf, wl, sf, sl

@@ -159,7 +159,7 @@ void printTableII(std::ostream& os, const std::vector<BenchRun>& runs) {
 }
 
 void printMemory(std::ostream& os, const std::vector<BenchRun>& runs) {
-  os << "\nMemory (issue 8: <= 300 MB after 10,000 frames, <= 10 MB per 1,000 frames over mapped ground)\n";
+  os << "\nMemory (goal: <= 300 MB after 10,000 frames, <= 10 MB per 1,000 frames over mapped ground)\n";
   os << fmt::format("{:<8}{:<7}{:>8}{:>12}{:>12}{:>20}{:>12}{:>10}\n", "variant", "data", "frames", "keyframes",
                     "RSS [MiB]", "map/1000 fr [MiB]", "IMU-only", "revisits");
   for (const auto& r : runs)
@@ -186,7 +186,7 @@ void printStageTable(std::ostream& os, const std::vector<StageRow>& rows) {
     os << fmt::format("{:<48}{:>8}{:>10.3f}{:>10.3f}{:>10.3f}{:>10}  {}\n", r.stage, r.samples, r.ms.median, r.ms.p99,
                       r.ms.max, goal, verdict);
   }
-  os << "times in ms per call; goals from issue 8 (640 x 480).\n";
+  os << "times in ms per call; goals for 640 x 480 (docs/benchmarks.md).\n";
 }
 
 LineFit fitLine(const std::vector<double>& x, const std::vector<double>& y) {
@@ -791,7 +791,7 @@ void printScaling(std::ostream& os, const ScalingResult& r) {
   const std::size_t tenth = std::max<std::size_t>(n / 10, 1);
   const double dist = n ? r.frames.back().distance_m : 0.0;
   const char* what = have_cpu ? "thread CPU" : "stage total";
-  os << "\nPer-frame time over the survey (issue 8: flat, no hidden O(n) in the map)\n";
+  os << "\nPer-frame time over the survey (goal: flat, no hidden O(n) in the map)\n";
   os << fmt::format("{} frames, {:.0f} m; {} per frame: fit {:.3f} ms + {:+.4f} ms per km (R^2 {:.3f}); median first "
                     "tenth {:.2f} ms, last tenth {:.2f} ms\n",
                     n, dist, what, r.cpu_vs_km.intercept, r.cpu_vs_km.slope, r.cpu_vs_km.r2, medianOf(0, tenth, false),
@@ -807,7 +807,7 @@ void printScaling(std::ostream& os, const ScalingResult& r) {
     os << "\nno feature-count sweep (--sweep-frames 0)\nplot: " << r.frames_png << "\ncsv: " << r.frames_csv << "\n";
     return;
   }
-  os << "\nPer-frame time against feature count (issue 8: roughly linear; one thread, CPU clock)\n";
+  os << "\nPer-frame time against feature count (goal: roughly linear; one thread, CPU clock)\n";
   os << fmt::format("{:>8}{:>8}{:>18}{:>18}{:>18}{:>18}\n", "target", "frames", "features med/p99", "CPU ms med/p99",
                     "wall ms med/p99", "features ms med");
   for (const auto& s : r.sweep)

@@ -164,7 +164,7 @@ const RegisterCommand kRegister("bench", [](CLI::App& app) {
   paper->add_option("--presets", o->paper.presets, "paper-plain and/or paper-snow (default both)")->delimiter(',');
   paper->callback([o] { guarded("paper", [o] { runPaper(*o); }); });
 
-  CLI::App* stages = cmd->add_subcommand("stages", "Time each stage over a short simulated sequence vs issue 8 goals");
+  CLI::App* stages = cmd->add_subcommand("stages", "Time each stage over a short simulated sequence vs the speed goals (docs/benchmarks.md)");
   stages->add_option("--frames", o->stages.frames, "frames of the short-plain sequence (>= 5)");
   stages->add_option("--seed", o->stage_seed, "simulator seed");
   stages->add_option("--out", o->stages.out_dir, "folder for the sequence and the table");

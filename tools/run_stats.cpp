@@ -22,10 +22,7 @@ double RunStats::percentile(std::vector<double> v, double p) {
 const char* coastingName(CoastingCorrection c) {
   switch (c) {
     case CoastingCorrection::kNone: return "none";
-    case CoastingCorrection::kBare: return "bare";
-    case CoastingCorrection::kHandoverFit: return "handover_fit";
-    case CoastingCorrection::kAgreedLeak: return "agreed_leak";
-    case CoastingCorrection::kCovarianceOnly: return "covariance_only";
+    case CoastingCorrection::kInertial: return "inertial";
     case CoastingCorrection::kNoImu: return "no_imu";
     case CoastingCorrection::kHeld: return "held";
   }
@@ -123,7 +120,7 @@ void RunStats::printTable(std::ostream& os, PaperVariant variant) const {
                     percentile(feat, 50), percentile(stereo, 50), percentile(temporal, 50), percentile(inliers, 50),
                     losses.imu_only_frames);
   if (losses.imu_only_frames > 0) {
-    // Which losses the coasting corrected and how: frames (outages) per kind.
+    // What the losses coasted on: frames (outages) per kind.
     os << fmt::format(" in {} outages:", losses.outages);
     for (int k = 1; k < LossCounts::kKinds; ++k) {
       const auto c = static_cast<CoastingCorrection>(k);

@@ -16,13 +16,11 @@ struct MemorySample {
   double rss_mb = 0;       ///< VmRSS [MiB]
 };
 
-/// The stats name of a coasting correction ("none", "bare", "handover_fit", "agreed_leak",
-/// "covariance_only", "no_imu", "held").
+/// The stats name of what a frame coasted on ("none", "inertial", "no_imu", "held").
 const char* coastingName(CoastingCorrection c);
 
 /// The vision losses of a run: IMU-only frames, and outages (runs of
-/// consecutive IMU-only frames), each by what corrected its coasting (an outage by its first
-/// frame's, which the odometry holds for the whole stretch).
+/// consecutive IMU-only frames), each by what it coasted on (an outage by its first frame's).
 struct LossCounts {
   static constexpr int kKinds = static_cast<int>(CoastingCorrection::kHeld) + 1;
   int imu_only_frames = 0;

@@ -15,21 +15,23 @@ enum class Refusal : uint8_t {
   kInliers = 3,         ///< RANSAC kept fewer inliers than it needs
   kSpeed = 4,           ///< the visual step is faster than the rig profile allows
   kNonFinite = 5,       ///< the estimate was not finite: the last finite pose held
+  kInertialGate = 6,    ///< the motion is beyond the inertial prediction's chi-square gate
 };
-inline constexpr int kRefusalKinds = static_cast<int>(Refusal::kNonFinite) + 1;
+inline constexpr int kRefusalKinds = static_cast<int>(Refusal::kInertialGate) + 1;
 
 /// A refused frame's check with the figure it measured and the limit it missed
 /// (value < limit for the counts, value > limit for the speed).
 struct RefusalFigures {
   Refusal check = Refusal::kNone;
-  double value = 0;  ///< points / matches / inliers [count], or speed [m/s]
+  double value = 0;  ///< points / matches / inliers [count], speed [m/s], or Mahalanobis distance^2
   double limit = 0;  ///< the same unit
 };
 
-/// Stats and log name ("none", "stereo_points", "temporal_matches", "inliers", "speed", "non_finite").
+/// Stats and log name ("none", "stereo_points", "temporal_matches", "inliers", "speed", "non_finite",
+/// "inertial_gate").
 constexpr std::string_view refusalName(Refusal r) {
-  constexpr std::array<std::string_view, kRefusalKinds> names = {"none",    "stereo_points", "temporal_matches",
-                                                                 "inliers", "speed",         "non_finite"};
+  constexpr std::array<std::string_view, kRefusalKinds> names = {
+      "none", "stereo_points", "temporal_matches", "inliers", "speed", "non_finite", "inertial_gate"};
   return names[static_cast<std::size_t>(r)];
 }
 
@@ -41,7 +43,8 @@ constexpr std::string_view refusalConfigKey(Refusal r) {
       "odometry.temporal.sigma_multiplier (the temporal search windows)",
       "odometry.ransac.inlier_threshold_px",
       "odometry.rig.max_speed_m_s",
-      "none (a numerical failure: please report it)"};
+      "none (a numerical failure: please report it)",
+      "odometry.inertial.gate_chi2, and the IMU's noise in its sensor.yaml"};
   return keys[static_cast<std::size_t>(r)];
 }
 

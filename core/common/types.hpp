@@ -42,17 +42,12 @@ enum class PoseSource : uint8_t {
   kImuOnly = 2,  ///< vision failed this frame: IMU dead reckoning, flagged
 };
 
-/// What corrected an IMU-only frame's dead reckoning for the acceleration the IMU misses
-/// (observability: which losses the leak the fixes agree on corrected, which only
-/// widened the covariance). Chosen at an outage's first frame and held for the whole stretch.
+/// What an IMU-only frame coasted on.
 enum class CoastingCorrection : uint8_t {
-  kNone = 0,            ///< not coasted: a visual (or the first) frame
-  kBare = 1,            ///< the bare IMU prediction: no handover fit and no leak estimate
-  kHandoverFit = 2,     ///< velocity (and acceleration) fitted over the last fixes (10 Hz)
-  kAgreedLeak = 3,      ///< the leak the last steady fixes agree on (core/imu/coasting_leak.hpp, 1 Hz)
-  kCovarianceOnly = 4,  ///< the fixes disagreed: no correction, only the covariance widened
-  kNoImu = 5,           ///< no IMU: the constant-velocity prediction
-  kHeld = 6,            ///< the estimate was not finite: the last finite pose held
+  kNone = 0,      ///< not coasted: a visual (or the first) frame
+  kInertial = 1,  ///< the inertial filter's propagation (core/imu/error_state_filter.hpp)
+  kNoImu = 2,     ///< no IMU: the constant-velocity prediction
+  kHeld = 3,      ///< the estimate was not finite: the last finite pose held
 };
 
 /// Per-stage wall time of one frame [ms] (the paper's Table II columns and more).
@@ -86,6 +81,11 @@ struct Quality {
   /// Global mode: the map moved this pose (re-observation of an old keyframe or map ICP,
   /// paper III-D/E); false for a frame-to-frame pose.
   bool map_refined = false;
+  /// The visual motion's squared Mahalanobis distance to the inertial prediction (0: no update).
+  double inertial_mahalanobis2 = 0;
+  /// Vision and the IMU disagreed for long enough that the IMU was judged at fault this frame
+  /// (ErrorStateParams::imu_fault_refusals): its inertial states were re-opened.
+  bool imu_fault = false;
 };
 
 /// What `Odometry::process` returns for each stereo frame.

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
 #include "core/common/se3.hpp"
@@ -122,8 +123,8 @@ void ErrorStateFilter::step(const Vector3d& w_meas, const Vector3d& a_meas, doub
   F.block<3, 3>(kEsPos, kEsBa) = -0.5 * R_mid * dt * dt;
   const ImuNoise& n = params_.noise;
   Eigen::Matrix<double, 15, 1> q = Eigen::Matrix<double, 15, 1>::Zero();
-  q.segment<3>(kEsTheta).setConstant(n.gyroscope_noise_density * n.gyroscope_noise_density * dt);
-  q.segment<3>(kEsVel).setConstant(n.accelerometer_noise_density * n.accelerometer_noise_density * dt);
+  q.segment<3>(kEsTheta).setConstant(noise_scale_ * n.gyroscope_noise_density * n.gyroscope_noise_density * dt);
+  q.segment<3>(kEsVel).setConstant(noise_scale_ * n.accelerometer_noise_density * n.accelerometer_noise_density * dt);
   q.segment<3>(kEsBg).setConstant(n.gyroscope_random_walk * n.gyroscope_random_walk * dt);
   q.segment<3>(kEsBa).setConstant(n.accelerometer_random_walk * n.accelerometer_random_walk * dt);
   const Eigen::Matrix<double, 15, 15> Pii = P_.topLeftCorner<15, 15>();
@@ -211,18 +212,27 @@ UpdateOutcome ErrorStateFilter::update(const RelativeMotion& z, double* mahalano
   const double d2 = r.dot(ldlt.solve(r));
   if (mahalanobis2) *mahalanobis2 = d2;
   UpdateOutcome outcome = UpdateOutcome::kAccepted;
+  adaptNoise(d2);
   if (!(d2 <= params_.gate_chi2)) {
-    ++refused_;
-    ++refused_in_a_row_;
-    if (params_.imu_fault_refusals <= 0 || refused_in_a_row_ < params_.imu_fault_refusals)
-      return UpdateOutcome::kRefused;
-    // Vision has disagreed for imu_fault_refusals frames in a row, each motion passing its
-    // own checks: one glitch of vision is refused once, a lasting disagreement is the IMU's.
-    ++imu_faults_;
-    reopenInertial();
-    outcome = UpdateOutcome::kImuFault;
-    S = H * P_ * H.transpose() + z.covariance;
-    ldlt.compute(S);
+    agreed_in_a_row_ = 0;
+    // Until the IMU has agreed with vision for imu_fault_refusals frames in a row (start-up,
+    // after a fault) the gate does not refuse: a filter with nothing to show yet follows vision.
+    if (trusted_) {
+      ++refused_;
+      ++refused_in_a_row_;
+      if (params_.imu_fault_refusals <= 0 || refused_in_a_row_ < params_.imu_fault_refusals)
+        return UpdateOutcome::kRefused;
+      // Vision has disagreed for imu_fault_refusals frames in a row, each motion passing its
+      // own checks: one glitch of vision is refused once, a lasting disagreement is the IMU's.
+      ++imu_faults_;
+      trusted_ = false;
+      reopenInertial();
+      outcome = UpdateOutcome::kImuFault;
+      S = H * P_ * H.transpose() + z.covariance;
+      ldlt.compute(S);
+    }
+  } else if (params_.imu_fault_refusals > 0 && ++agreed_in_a_row_ >= params_.imu_fault_refusals) {
+    trusted_ = true;
   }
   refused_in_a_row_ = 0;
   const Eigen::Matrix<double, kEsDim, 6> K = (ldlt.solve(H * P_)).transpose();
@@ -230,9 +240,40 @@ UpdateOutcome ErrorStateFilter::update(const RelativeMotion& z, double* mahalano
   // Joseph form: stays symmetric positive over thousands of updates.
   const EsMatrix IKH = EsMatrix::Identity() - K * H;
   P_ = IKH * P_ * IKH.transpose() + K * z.covariance * K.transpose();
-  P_ = 0.5 * (P_ + P_.transpose());
+  keepPositive();
   inject(dx);
   return outcome;
+}
+
+void ErrorStateFilter::adaptNoise(double d2) {
+  // Covariance matching: the squared Mahalanobis distance of a consistent 6-dof innovation has
+  // a median of 5.35. An IMU noisier than its datasheet (or integrated from too few samples,
+  // KITTI's 10 Hz) keeps it well above that; the white noise is then scaled up until it fits,
+  // and back down when it is too pessimistic. The median of the last kNoiseWindow distances
+  // is robust to single vision outliers; one step per full window.
+  recent_d2_[static_cast<std::size_t>(recent_count_ % kNoiseWindow)] = d2;
+  if (++recent_count_ < kNoiseWindow) return;
+  std::array<double, kNoiseWindow> sorted = recent_d2_;
+  std::nth_element(sorted.begin(), sorted.begin() + kNoiseWindow / 2, sorted.end());
+  const double median = sorted[kNoiseWindow / 2];
+  constexpr double kChi2Median6 = 5.35;
+  if (median > 2.0 * kChi2Median6) {
+    noise_scale_ = std::min(2.0 * noise_scale_, kMaxNoiseScale);
+  } else if (median < 0.5 * kChi2Median6) {
+    noise_scale_ = std::max(0.5 * noise_scale_, 1.0);
+  } else {
+    return;
+  }
+  recent_count_ = 0;
+}
+
+void ErrorStateFilter::keepPositive() {
+  // A visual rotation is known to ~1e-5 rad while the velocity spreads over ~1e-2 m/s: the gain
+  // spans ten orders of magnitude and the Joseph form's products, positive in exact
+  // arithmetic, round to small negative eigenvalues that propagation then amplifies.
+  const Eigen::SelfAdjointEigenSolver<EsMatrix> es(0.5 * (P_ + P_.transpose()));
+  P_ = es.eigenvectors() * es.eigenvalues().cwiseMax(0.0).asDiagonal() * es.eigenvectors().transpose();
+  P_ = 0.5 * (P_ + P_.transpose());
 }
 
 void ErrorStateFilter::inject(const EsVector& dx) {
@@ -263,7 +304,11 @@ void ErrorStateFilter::reopenInertial() {
   P_.block<3, 3>(kEsPos, kEsPos) += Matrix3d::Identity() * std::pow(params_.initial_velocity_sigma_m_s, 2);
 }
 
-void ErrorStateFilter::clonePose() {
+void ErrorStateFilter::clonePose(bool anchor_position) {
+  if (anchor_position) {
+    P_.block<3, kEsDim>(kEsPos, 0).setZero();
+    P_.block<kEsDim, 3>(0, kEsPos).setZero();
+  }
   R_clone_ = R_;
   p_clone_ = p_;
   // The clone's error is the pose's: copy the rows and columns (Sola 7: augmentation).
@@ -295,11 +340,13 @@ Matrix6d ErrorStateFilter::poseCovarianceW() const {
   return J * P_ * J.transpose();
 }
 
-Matrix6d cameraToBodyMotionCovariance(const Matrix6d& C, const Eigen::Isometry3d& T_ref_curr_C,
-                                      const Eigen::Isometry3d& T_B_C) {
-  // Camera motion T = Exp(xi) T_hat (left, reference camera): phi, and a translation error
-  // rho - [t]x phi. Body motion X T X^-1 (X = T_B_C): its translation moves by
-  // R_x dt + [R_B t_x]x R_x phi, its rotation (right, current body) by R_B^T R_x phi.
+namespace {
+
+/// The Jacobian from a camera motion's error (left perturbation in the reference camera) to
+/// RelativeMotion's body-frame error. Camera motion T = Exp(xi) T_hat: phi, and a translation
+/// error rho - [t]x phi. Body motion X T X^-1 (X = T_B_C): its translation moves by
+/// R_x dt + [R_B t_x]x R_x phi, its rotation (right, current body) by R_B^T R_x phi.
+Matrix6d cameraToBodyJacobian(const Eigen::Isometry3d& T_ref_curr_C, const Eigen::Isometry3d& T_B_C) {
   const Matrix3d Rx = T_B_C.rotation();
   const Vector3d tx = T_B_C.translation();
   const Matrix3d R_B = Rx * T_ref_curr_C.rotation() * Rx.transpose();
@@ -307,19 +354,20 @@ Matrix6d cameraToBodyMotionCovariance(const Matrix6d& C, const Eigen::Isometry3d
   J.topLeftCorner<3, 3>() = R_B.transpose() * Rx;
   J.bottomLeftCorner<3, 3>() = -Rx * se3::skew(T_ref_curr_C.translation()) + se3::skew(R_B * tx) * Rx;
   J.bottomRightCorner<3, 3>() = Rx;
+  return J;
+}
+
+}  // namespace
+
+Matrix6d cameraToBodyMotionCovariance(const Matrix6d& C, const Eigen::Isometry3d& T_ref_curr_C,
+                                      const Eigen::Isometry3d& T_B_C) {
+  const Matrix6d J = cameraToBodyJacobian(T_ref_curr_C, T_B_C);
   return J * C * J.transpose();
 }
 
 Matrix6d bodyToCameraMotionCovariance(const Matrix6d& B, const Eigen::Isometry3d& T_ref_curr_C,
                                       const Eigen::Isometry3d& T_B_C) {
-  const Matrix3d Rx = T_B_C.rotation();
-  const Vector3d tx = T_B_C.translation();
-  const Matrix3d R_B = Rx * T_ref_curr_C.rotation() * Rx.transpose();
-  Matrix6d J = Matrix6d::Zero();
-  J.topLeftCorner<3, 3>() = R_B.transpose() * Rx;
-  J.bottomLeftCorner<3, 3>() = -Rx * se3::skew(T_ref_curr_C.translation()) + se3::skew(R_B * tx) * Rx;
-  J.bottomRightCorner<3, 3>() = Rx;
-  const Matrix6d Ji = J.inverse();
+  const Matrix6d Ji = cameraToBodyJacobian(T_ref_curr_C, T_B_C).inverse();
   return Ji * B * Ji.transpose();
 }
 

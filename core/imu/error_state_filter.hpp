@@ -9,6 +9,7 @@
 /// (ImuNoise); gravity is part of the model, so tilt and accelerometer bias are separated by
 /// the motion itself (turns, waves) and not by a separate observer. Coasting is propagation
 /// without updates, and its covariance is the filter's.
+#include <array>
 #include <cstdint>
 #include <span>
 
@@ -31,7 +32,7 @@ struct ErrorStateParams {
   ImuNoise noise;                           ///< densities and random walks (sensor.yaml)
   double gyro_bias_sigma_rad_s = 5e-3;      ///< datasheet spread of the turn-on gyro bias
   double accel_bias_sigma_m_s2 = 0.05;      ///< ... and of the accelerometer bias
-  double initial_velocity_sigma_m_s = 1.0;  ///< unknown start velocity
+  double initial_velocity_sigma_m_s = 1.0;  ///< unknown start velocity (Odometry: the rig's top speed)
   /// Tilt uncertainty when the start is not judged at rest: a horizontal acceleration a tilts
   /// the apparent gravity by a / g (1 m/s^2: 0.1 rad) [rad].
   double moving_tilt_sigma_rad = 0.1;
@@ -39,7 +40,9 @@ struct ErrorStateParams {
   double gate_chi2 = 22.46;
   /// This many visual motions refused in a row, each accepted by vision's own checks, and the
   /// IMU is judged at fault (a clipped or glitching sensor): the filter re-opens its inertial
-  /// states to their start-up spread and follows vision. 0 = never.
+  /// states to their start-up spread and follows vision. The gate refuses only once the IMU
+  /// has agreed with vision this many frames in a row (at start-up and after a fault it
+  /// follows vision). 0 = never blamed, the gate always on.
   int imu_fault_refusals = 5;
   double gyro_range_rad_s = 35.0;   ///< a sample beyond the sensor's range is a spike [rad/s]
   double accel_range_m_s2 = 160.0;  ///< ... [m/s^2]
@@ -74,7 +77,8 @@ struct RelativeMotion {
 
 class ErrorStateFilter {
  public:
-  explicit ErrorStateFilter(const ErrorStateParams& params = {}) : params_(params) {}
+  explicit ErrorStateFilter(const ErrorStateParams& params = {})
+      : params_(params), trusted_(params.imu_fault_refusals <= 0) {}
 
   /// Start at `t_ns` from the samples just before it: attitude from gravity over them if
   /// judged steady, gyro bias from them if judged at rest; never assumes rest. Yaw is 0.
@@ -93,8 +97,13 @@ class ErrorStateFilter {
   RelativeMotion predictedMotion() const;
   /// Fuses a visual motion (gated; see UpdateOutcome). `mahalanobis2` gets its distance.
   UpdateOutcome update(const RelativeMotion& z, double* mahalanobis2 = nullptr);
-  /// The current pose becomes the clone (call once per frame, after any update).
-  void clonePose();
+  /// The current pose becomes the clone (call once per frame, after any update). With
+  /// `anchor_position` the position's own error is dropped first: no measurement sees it
+  /// (each depends on p - p_clone only) and nothing propagates from it, so the relative
+  /// motions are unchanged, and without it the absolute position variance would grow with
+  /// the whole survey until the relative covariance, a difference of two such terms, lost
+  /// its precision. The position covariance is then what accrued since the anchor (coasting).
+  void clonePose(bool anchor_position = true);
 
   NavState state() const;
   const EsMatrix& covariance() const { return P_; }
@@ -108,11 +117,17 @@ class ErrorStateFilter {
   uint64_t refused() const { return refused_; }
   uint64_t imuFaults() const { return imu_faults_; }
   int refusedInARow() const { return refused_in_a_row_; }
+  /// The factor on the IMU's white-noise variances that makes the innovations fit (>= 1).
+  double noiseScale() const { return noise_scale_; }
 
  private:
   bool plausible(const ImuSample& s) const;
   void step(const Eigen::Vector3d& w_meas, const Eigen::Vector3d& a_meas, double dt_s);
   void inject(const EsVector& dx);
+  /// Scales the IMU's white noise to the innovations (covariance matching).
+  void adaptNoise(double d2);
+  /// Symmetric positive semi-definite again after an update (negative eigenvalues cut to 0).
+  void keepPositive();
   /// Re-opens velocity, tilt and biases to their start-up spread (an IMU judged at fault).
   void reopenInertial();
 
@@ -129,6 +144,13 @@ class ErrorStateFilter {
   ImuSample last_;  ///< the measurement at t_ns_ (interpolated at a frame boundary)
   uint64_t spikes_ = 0, refused_ = 0, imu_faults_ = 0;
   int refused_in_a_row_ = 0;
+  int agreed_in_a_row_ = 0;
+  bool trusted_ = false;  ///< the gate refuses (see imu_fault_refusals)
+  static constexpr int kNoiseWindow = 10;
+  static constexpr double kMaxNoiseScale = 1e4;
+  std::array<double, kNoiseWindow> recent_d2_{};
+  int recent_count_ = 0;
+  double noise_scale_ = 1.0;
 };
 
 /// The covariance of the left perturbation in the reference camera of a camera motion

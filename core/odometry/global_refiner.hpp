@@ -77,11 +77,6 @@ struct GlobalRequest {
   /// The local result published for this frame, so a consumer can publish the refined pose
   /// (same seq) without going back to the estimator.
   OdometryResult local;
-  /// The published frame from the chain's W at this frame: local.T_W_B = T_published_W *
-  /// (the chain's T_W_B). Identity unless the odometry publishes in the start-up frame
-  /// (OdometryParams::accel_bias_start_frame); a consumer turns `correction_W` by it
-  /// (publishedCorrection) before composing it onto `local`.
-  Eigen::Isometry3d T_published_W = Eigen::Isometry3d::Identity();
   /// Deferred delivery: frame id of the last correction the odometry had applied when it
   /// tracked this frame (none: no correction applied yet). Corrections the refiner issued
   /// after that one are not yet in `T_W_R0`; refine() composes them in first, so a drift is
@@ -129,12 +124,6 @@ struct GlobalCorrection {
   bool changed() const { return revisit_used || icp_accepted; }
 };
 
-/// `c.correction_W`, a delta in the chain's W, as the same delta in the frame `q.local` was
-/// published in: refined published pose = publishedCorrection(q, c) * q.local.T_W_B. It moves
-/// the published pose as the map moved the chain's, whatever the start-up tilt between them.
-inline Eigen::Isometry3d publishedCorrection(const GlobalRequest& q, const GlobalCorrection& c) {
-  return q.T_published_W * c.correction_W * q.T_published_W.inverse();
-}
 
 class GlobalRefiner {
  public:

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <numeric>
 
+#include <Eigen/Eigenvalues>
+
 #include "core/common/capacity.hpp"
 #include "core/common/se3.hpp"
 #include "core/common/stage_timer.hpp"
@@ -20,14 +22,6 @@ using Matrix6d = Eigen::Matrix<double, 6, 6>;
 /// only. Completed points come on top of the features it keeps; counted, they would make it
 /// keep fewer features where completion helps most (snow at 10 Hz).
 int descriptorStereoMatches(const Quality& q) { return q.stereo_matches - q.stereo_completed; }
-
-/// Relative-motion covariance (rotation, translation) from the propagated error state.
-Matrix6d relativeCovariance(const imu::Matrix9d& P) {
-  Matrix6d C = Matrix6d::Zero();
-  C.topLeftCorner<3, 3>() = P.topLeftCorner<3, 3>();
-  C.bottomRightCorner<3, 3>() = P.block<3, 3>(6, 6);
-  return C;
-}
 
 /// The inertial estimator's predicted motion as a body transform (previous <- current).
 Eigen::Isometry3d bodyMotion(const imu::RelativeMotion& m) {
@@ -66,48 +60,17 @@ Eigen::Matrix3d keyframeBiasCovariance(const Eigen::Matrix3d& Pbg_B, const Eigen
   return R_B_R0.transpose() * Pbg_B * R_B_R0 * span2;
 }
 
+/// The positive semi-definite part of a symmetric matrix (negative eigenvalues cut to zero): a
+/// difference of covariances that round-off or a contracting propagation made indefinite.
+Matrix6d positivePart(const Matrix6d& A) {
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> es(0.5 * (A + A.transpose()));
+  return es.eigenvectors() * es.eigenvalues().cwiseMax(0.0).asDiagonal() * es.eigenvectors().transpose();
+}
+
 /// A re-observation's covariance update (GlobalCorrection: scale, then position variance added).
 void shrinkCovariance(Matrix6d& P, double scale, double added_position_variance_m2) {
   P *= scale;
   P.bottomRightCorner<3, 3>() += Eigen::Matrix3d::Identity() * added_position_variance_m2;
-}
-
-/// Adds a relative-motion covariance expressed in frame `R_W_a` to an absolute one in W.
-void accumulate(Matrix6d& absolute, const Matrix6d& relative, const Eigen::Matrix3d& R_W_a) {
-  Matrix6d J = Matrix6d::Zero();
-  J.topLeftCorner<3, 3>() = R_W_a;
-  J.bottomRightCorner<3, 3>() = R_W_a;
-  absolute += J * relative * J.transpose();
-}
-
-/// The visual gyro-bias residual (body frame) with its tilt part, perpendicular to gravity,
-/// weighted by `tilt_weight` (OdometryParams::gyro_bias_vision_tilt_weight); the heading part,
-/// about gravity, is what the visual rotation observes without the pitch/surge coupling.
-Eigen::Vector3d weightTilt(const Eigen::Vector3d& residual_B, const Eigen::Matrix3d& R_W_B, double tilt_weight) {
-  const Eigen::Vector3d z_B = R_W_B.transpose() * Eigen::Vector3d::UnitZ();
-  const Eigen::Vector3d heading_part = z_B * z_B.dot(residual_B);
-  return heading_part + tilt_weight * (residual_B - heading_part);
-}
-
-/// The visual gyro-bias gain for one frame of `dt_s` (OdometryParams::gyro_bias_gain_interval_s):
-/// gyro_bias_gain at its interval, scaled by sqrt(dt_s / interval) at others (the steady-state
-/// Kalman gain with the bias walk per frame growing with dt_s and the residual's noise in rad/s
-/// about rate-independent). At the 10 Hz of the short surveys the factor is exactly 1.
-double gyroBiasGain(const OdometryParams& p, double dt_s) {
-  if (p.gyro_bias_gain_interval_s <= 0 || dt_s <= 0) return p.gyro_bias_gain;
-  return std::min(1.0, p.gyro_bias_gain * std::sqrt(dt_s / p.gyro_bias_gain_interval_s));
-}
-
-/// The mean specific force over an IMU interval, body frame, less the accelerometer bias.
-Eigen::Vector3d meanSpecificForce(std::span<const ImuSample> interval, const Eigen::Vector3d& accel_bias_m_s2) {
-  Eigen::Vector3d f_B = Eigen::Vector3d::Zero();
-  for (const ImuSample& s : interval) f_B += s.accel_m_s2;
-  return f_B / static_cast<double>(interval.size()) - accel_bias_m_s2;
-}
-
-/// The attitude halfway (on the geodesic) between two attitudes.
-Eigen::Matrix3d midAttitude(const Eigen::Matrix3d& R_start, const Eigen::Matrix3d& R_end) {
-  return R_start * se3::expSO3(0.5 * se3::logSO3(R_start.transpose() * R_end));
 }
 
 /// Local ICP's model: `index` rebuilt over the points of `features` (`scratch` holds the
@@ -145,7 +108,7 @@ GlobalRefinerParams globalRefinerParams(const OdometryParams& p) {
   g.min_revisit_age_s = p.min_revisit_age_s;
   g.max_map_correction_m = p.max_map_correction_m;
   g.max_map_correction_rad = p.max_map_correction_rad;
-  g.keep_tilt = p.map_keeps_tilt && p.accel_bias_estimation;
+  g.keep_tilt = p.map_keeps_tilt;
   g.revisit_keyframe_distance_m = p.revisit_keyframe_distance_m;
   g.revisit_max_points = p.revisit_max_points;
   g.revisit_min_inliers = p.revisit_min_inliers;
@@ -182,13 +145,11 @@ Odometry::Odometry(camera::StereoRectifier rectifier, const imu::ImuNoise& imu_n
       filter_([&] {
         imu::ErrorStateParams e = params.inertial;
         e.noise = imu_noise;
+        // The vehicle may be under way at any speed its profile allows when the odometry starts
+        // (a watchdog restart mid-dive, a car already driving): a tighter prior would gate out
+        // the very visual motions that tell the filter its velocity.
+        e.initial_velocity_sigma_m_s = params.rig.max_speed_m_s;
         return e;
-      }()),
-      accel_bias_([&] {
-        imu::AccelBiasParams a = params.accel_bias;
-        a.bias_random_walk_m_s2_sqrt_s = imu_noise.accelerometer_random_walk;
-        a.accel_noise_density = imu_noise.accelerometer_noise_density;
-        return a;
       }()) {}
 
 GlobalRefiner Odometry::makeGlobalRefiner(NowNsFn now) const {
@@ -217,7 +178,6 @@ void Odometry::makeGlobalRequest(const FrameFeatures& frame, const Eigen::Isomet
   // its buffers.
   q.features.descriptors = frame.stereo.descriptors.clone();
   q.local = r;
-  q.T_published_W = r.T_W_B * state_.T_W_B.inverse();
   q.last_applied_correction = last_applied_correction_;
   if (params_.global_link) {
     params_.global_link->submit(std::move(q));
@@ -231,7 +191,6 @@ void Odometry::applyGlobalCorrection(const GlobalCorrection& c) {
   const Eigen::Isometry3d delta = c.increment_W ? *c.increment_W : c.correction_W;
   if (!initialised_ || !finitePose(delta)) return;
   last_applied_correction_ = c.frame_id;
-  gravity_bias_.reset();  // the chain moved: its windows no longer compare
   // The correction is a delta in W measured at an older frame; everything tracked since was
   // chained onto that frame's pose, so the same delta moves it too. A correction is not
   // motion: the velocity is only turned with the frame.
@@ -241,12 +200,6 @@ void Odometry::applyGlobalCorrection(const GlobalCorrection& c) {
   // The next frame is tracked against the keyframe: it moves with the chain, or that frame
   // would be placed where the keyframe was before the correction and lose it.
   if (keyframe_) keyframe_->T_W_R0 = orthonormalized(delta * keyframe_->T_W_R0);
-  // The velocity was turned mid-window: the accelerometer-bias window starts again, or turns
-  // with it when the map only moves the heading (map_keeps_tilt).
-  if (params_.map_keeps_tilt)
-    accel_bias_.turnWindow(delta.linear());
-  else
-    accel_bias_.breakWindow();
   if (c.revisit_used) {
     shrinkCovariance(pose_covariance_, c.covariance_scale, c.added_position_variance_m2);
     if (keyframe_) shrinkCovariance(keyframe_->pose_covariance, c.covariance_scale, c.added_position_variance_m2);
@@ -292,32 +245,23 @@ OdometryResult Odometry::process(const StereoFrame& frame, std::span<const ImuSa
 void Odometry::initialise(const FrameFeatures& frame, std::span<const ImuSample> imu) {
   state_ = NavState{};
   state_.t_ns = frame.t_ns;
-  // Attitude from the accelerometer over the last second before the first frame (III-A).
-  std::vector<ImuSample> recent;
-  for (const ImuSample& s : imu)
-    if (s.t_ns <= frame.t_ns && s.t_ns > frame.t_ns - 1'000'000'000) recent.push_back(s);
-  if (const auto R = imu::attitudeFromAccelerometer(recent, 0.2)) state_.T_W_B.linear() = *R;
-  // A vehicle that starts still hands us its gyro bias: without it the rotation prior would
-  // carry the bias straight into the attitude.
-  if (const auto bg = imu::gyroBiasAtRest(recent)) {
-    state_.gyro_bias_rad_s = *bg;
-    gyro_bias_sigma_rad_s_ = params_.gyro_bias_sigma_at_rest_rad_s;
-  } else {
-    gyro_bias_sigma_rad_s_ = params_.gyro_bias_sigma_unknown_rad_s;
-  }
-  state_covariance_ = imu::Matrix9d::Zero();
-  state_covariance_.block<3, 3>(3, 3) =
-      Eigen::Matrix3d::Identity() * params_.initial_velocity_sigma_m_s * params_.initial_velocity_sigma_m_s;
   pose_covariance_ = Matrix6d::Identity() * 1e-12;
-  if (params_.prediction == Prediction::kImu) filter_.start(frame.t_ns, imu);
-  accel_bias_.reset(state_.T_W_B.rotation(), imu::attitudeFromAccelerometer(recent, 0.2).has_value(),
-                    params_.attitude_sigma_rad, gyro_bias_sigma_rad_s_);
-  published_p_W_ = published_from_p_W_ = state_.T_W_B.translation();  // the start-up frame's anchor
-  imu::GravityBiasObserverParams gravity;
-  gravity.window_s = params_.gyro_bias_gravity_window_s;
-  gravity.max_turn_rad = params_.gyro_bias_gravity_max_turn_rad;
-  gravity.min_intervals = params_.gyro_bias_gravity_window_min_frames;
-  gravity_bias_ = imu::GravityBiasObserver(gravity);
+  if (params_.prediction == Prediction::kImu) {
+    // III-A: attitude from gravity over the last second before the first frame, the gyro bias
+    // from it if the vehicle was still; a moving start keeps the tilt loose for the first
+    // visual velocities to settle (ErrorStateFilter::start never assumes rest).
+    std::vector<ImuSample> recent;
+    for (const ImuSample& s : imu)
+      if (s.t_ns <= frame.t_ns && s.t_ns > frame.t_ns - 1'000'000'000) recent.push_back(s);
+    filter_.start(frame.t_ns, recent);
+    const NavState s = filter_.state();
+    state_.T_W_B.linear() = s.T_W_B.linear();
+    state_.gyro_bias_rad_s = s.gyro_bias_rad_s;
+    filter_stale_ = recent.empty();
+  }
+  fix_pose_covariance_ = pose_covariance_;
+  fix_filter_covariance_ = filter_.poseCovarianceW();
+  previous_coasted_ = false;
   initialised_ = true;
 }
 
@@ -369,42 +313,35 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     return r;
   }
 
-  // --- III-A: IMU dead reckoning from the last estimate to this frame.
+  // --- III-A: the inertial estimator propagated through this interval; its motion since the
+  // previous frame, with its covariance (gyro noise, velocity, tilt and bias uncertainty as the
+  // filter holds them), is the prediction.
   const double dt_s = 1e-9 * static_cast<double>(frame.t_ns - state_.t_ns);
-  imu::Matrix9d start_cov = imu::Matrix9d::Zero();
-  start_cov.block<3, 3>(3, 3) = state_covariance_.block<3, 3>(3, 3);
-  start_cov.topLeftCorner<3, 3>() = state_covariance_.topLeftCorner<3, 3>();
-  const bool have_imu = params_.prediction == Prediction::kImu && imu_buffer_.size() >= 2 &&
-                        imu_buffer_.back().t_ns >= state_.t_ns;
-  imu::ImuPropagation pred;
-  Eigen::Isometry3d T_prev_curr_pred;  // rectified left camera, previous <- current
+  const bool have_imu = filter_.started() && imu_buffer_.size() >= 2 && imu_buffer_.back().t_ns >= state_.t_ns;
+  if (have_imu && filter_stale_) {
+    // The IMU came back after an outage (or after a start without samples): the filter
+    // starts again from the visual state, its inertial states at their start-up spread.
+    filter_.startFrom(state_);
+    filter_stale_ = false;
+  }
+  if (filter_.started() && !have_imu) filter_stale_ = true;
+  imu::RelativeMotion inertial_motion;  // body, previous <- current
+  Eigen::Isometry3d T_prev_curr_pred;   // rectified left camera, previous <- current
   Matrix6d pred_cov;
-  // The inertial estimator's motion since the last frame, with its covariance (gyro noise,
-  // velocity, tilt and bias uncertainty as the filter holds them), is the prediction.
-  if (filter_.started()) filter_.propagate(imu_buffer_, frame.t_ns);
   if (have_imu) {
-    pred = imu::propagate(state_, start_cov, imu_buffer_, frame.t_ns, imu_noise_);
-    pred.state.T_W_B = orthonormalized(pred.state.T_W_B);
-    const imu::RelativeMotion m = filter_.predictedMotion();
-    T_prev_curr_pred = orthonormalized(T_B_R0.inverse() * bodyMotion(m) * T_B_R0);
-    pred_cov = imu::bodyToCameraMotionCovariance(m.covariance, T_prev_curr_pred, T_B_R0);
+    filter_.propagate(imu_buffer_, frame.t_ns);
+    inertial_motion = filter_.predictedMotion();
+    T_prev_curr_pred = orthonormalized(T_B_R0.inverse() * bodyMotion(inertial_motion) * T_B_R0);
+    pred_cov = imu::bodyToCameraMotionCovariance(inertial_motion.covariance, T_prev_curr_pred, T_B_R0);
   } else {
-    // No IMU (KITTI, IMU outage, or vision-only by choice): constant-velocity prediction,
+    // No IMU (KITTI, an IMU outage, or vision-only by choice): constant-velocity prediction,
     // loosely trusted.
-    pred.state = state_;
-    pred.state.t_ns = frame.t_ns;
     const double scale = last_dt_s_ > 0 ? dt_s / last_dt_s_ : 1.0;
     T_prev_curr_pred = se3::expSE3(se3::logSE3(last_motion_) * scale);
-    pred.state.T_W_B = state_.T_W_B * T_B_R0 * T_prev_curr_pred * T_B_R0.inverse();
     pred_cov = Matrix6d::Zero();
     pred_cov.diagonal() << 4e-4, 4e-4, 4e-4, 0.01, 0.01, 0.01;
   }
-  // This interval's samples (for the still-start bias), then drop what is no longer needed
-  // (keeping one sample before the frame for interpolation).
-  std::vector<ImuSample>& interval = work_.interval;
-  interval.clear();
-  for (const ImuSample& s : imu_buffer_)
-    if (s.t_ns > state_.t_ns && s.t_ns <= frame.t_ns) interval.push_back(s);
+  // Drop what is no longer needed (keeping one sample before the frame for interpolation).
   while (imu_buffer_.size() > 2 && imu_buffer_[1].t_ns <= frame.t_ns) imu_buffer_.erase(imu_buffer_.begin());
 
   // --- III-C: inter-frame matching pruned by the prediction, against the reference frame:
@@ -427,9 +364,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     ref_gyro_cov = keyframe_->gyro_covariance;
     dt_ref_s = 1e-9 * static_cast<double>(frame.t_ns - keyframe_->t_ns);
   }
-  const auto windowCentre = [&] { return T_ref_curr_pred; };
   std::vector<matching::TemporalMatch>& temporal = work_.temporal;
-  matching::matchTemporal(*ref_features, frame.stereo, rig, windowCentre(), pred_cov, params_.temporal,
+  matching::matchTemporal(*ref_features, frame.stereo, rig, T_ref_curr_pred, pred_cov, params_.temporal,
                           work_.temporal_ws, temporal);
   r.times.temporal_ms = timer.lap_ms();
 
@@ -460,7 +396,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     R_ref_curr_gyro = T_prev_curr_pred.rotation();
     ref_gyro_cov.setZero();
     dt_ref_s = dt_s;
-    matching::matchTemporal(*ref_features, frame.stereo, rig, windowCentre(), pred_cov, params_.temporal,
+    matching::matchTemporal(*ref_features, frame.stereo, rig, T_ref_curr_pred, pred_cov, params_.temporal,
                             work_.temporal_ws, temporal);
     r.times.temporal_ms += timer.lap_ms();
     toQuads();
@@ -565,24 +501,14 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
       rel_cov = refined.covariance;
     }
   }
-  // The gyro bias is learnt from vision alone: the four-view refinement without the prior.
-  // RANSAC's own refinement holds the triangulated depths fixed, which over a flat floor tilts
-  // its rotation along with the shortened translation (motion_refinement.hpp); a bias learnt
-  // from that tilt pitched the attitude 19 mrad off within 36 m on a tuning survey (seed 5).
-  std::optional<Eigen::Matrix3d> R_ref_curr_vision;
-  // Per keyframe (gyro_bias_per_keyframe): only the frame that ends the keyframe's span learns,
-  // below, once the keyframe decision is made.
-  const bool bias_per_keyframe = params_.gyro_bias_per_keyframe && kf_usable;
-  // The same vision-only motion is the inertial estimator's measurement: the prior-refined one
-  // would feed the gyro back to the filter as if vision had seen it.
+  // The inertial estimator's measurement is the four-view motion without the gyro prior: the
+  // prior-refined one would feed the gyro back to the filter as if vision had seen it.
   std::optional<MotionRefinementResult> vision_alone;
   if (vision_ok && have_imu) {
     vision_alone = refineMotion(rig, quads, ransac.inliers, ransac.T_prev_curr, RotationPrior{}, params_.refinement,
                                 work_.refinement);
     if (!vision_alone->ok) vision_alone.reset();
   }
-  if (vision_alone && params_.gyro_bias_gain > 0 && !bias_per_keyframe)
-    R_ref_curr_vision = vision_alone->T_prev_curr.rotation();
   Eigen::Isometry3d T_W_R0 = T_W_ref * T_prev_curr;
   // Tensor stage = RANSAC (and its fallbacks) plus the four-view refinements (paper III-C).
   r.times.tensor_ms += timer.lap_ms();
@@ -658,59 +584,46 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     }
   }
 
-  // The inertial estimator takes the vision-only motion since the previous frame; a motion its
-  // gate refuses is not used for the pose either (the frame coasts, flagged).
-  if (filter_.started()) {
-    if (vision_ok && vision_alone) {
+  // The inertial estimator takes the vision-only motion since the previous frame, through its
+  // chi-square gate; a refused motion is not used for the pose either (the frame coasts,
+  // flagged). Against a keyframe older than a coasted previous frame the motion would carry
+  // that frame's prediction into the measurement: the filter then only moves its clone on.
+  if (have_imu) {
+    const bool reference_measured = !previous_coasted_ || !on_keyframe || keyframe_->t_ns == prev.t_ns;
+    if (vision_ok && vision_alone && reference_measured) {
       const imu::RelativeMotion z = visionMotionSincePrevious(*vision_alone, prev.T_W_R0.inverse() * T_W_ref, T_B_R0);
-      if (filter_.update(z) == imu::UpdateOutcome::kRefused) vision_ok = false;
+      double d2 = 0;
+      const imu::UpdateOutcome outcome = filter_.update(z, &d2);
+      r.quality.inertial_mahalanobis2 = d2;
+      if (outcome == imu::UpdateOutcome::kRefused) {
+        vision_ok = false;
+        refusal = {Refusal::kInertialGate, d2, params_.inertial.gate_chi2};
+      }
+      r.quality.imu_fault = outcome == imu::UpdateOutcome::kImuFault;
     }
-    filter_.clonePose();
   }
 
-  // The state at the start of the interval, for the gravity tilt observation below.
-  const Eigen::Vector3d v_start_W = state_.v_W;
-  const Eigen::Matrix3d R_start_W_B = state_.T_W_B.rotation();
-  const Eigen::Vector3d p_start_W = state_.T_W_B.translation();
-  const int64_t t_start_ns = state_.t_ns;
   if (vision_ok) {
-    // Velocity: the visual displacement corrects the IMU's start velocity (III-A feeds III-C
-    // and the visual pose feeds the next prediction).
-    Eigen::Vector3d v = pred.state.v_W;
-    if (dt_s > 1e-6) v += (T_W_B.translation() - map_shift_W - pred.state.T_W_B.translation()) / dt_s;
-    if (have_imu && dt_ref_s > 1e-6 && R_ref_curr_vision) {
-      // Gyro bias from the residual between the IMU rotation and the vision-only rotation,
-      // lightly filtered; the prior-refined rotation would only echo the IMU.
-      const Eigen::Vector3d residual = se3::logSO3(R_ref_curr_gyro.transpose() * *R_ref_curr_vision) / dt_ref_s;
-      const Eigen::Vector3d residual_B = weightTilt(T_B_R0.rotation() * residual, state_.T_W_B.rotation(),
-                                                    params_.gyro_bias_vision_tilt_weight);
-      state_.gyro_bias_rad_s -= gyroBiasGain(params_, dt_s) * residual_B;
-      gyro_bias_sigma_rad_s_ = std::max(params_.gyro_bias_sigma_at_rest_rad_s, gyro_bias_sigma_rad_s_ * 0.99);
+    // The velocity: the filter's, turned from its world into the chain's (they share the
+    // start-up frame and part only by the chain's rotation drift); without an IMU the visual
+    // step's. A map correction is not motion: it only turns the velocity with the frame.
+    Eigen::Vector3d v = Eigen::Vector3d::Zero();
+    if (have_imu) {
+      const NavState f = filter_.state();
+      v = T_W_B.rotation() * f.T_W_B.rotation().transpose() * f.v_W;
+    } else if (dt_s > 1e-6) {
+      v = (T_W_B.translation() - map_shift_W - state_.T_W_B.translation()) / dt_s;
     }
-    // This interval for the velocity handed over if vision is lost next (a fit over
-    // the last fixes, core/imu/coasting_handover.hpp); the state's own velocity is unchanged.
-    if (have_imu)
-      handover_.add({frame.t_ns, T_W_B.translation() - map_shift_W - state_.T_W_B.translation(),
-                     pred.state.v_W - state_.v_W,
-                     pred.state.T_W_B.translation() - state_.T_W_B.translation() - state_.v_W * dt_s});
-    else
-      handover_.reset();
-    // A map correction is not motion: it turns the velocity with the frame, as a deferred
-    // correction does (applyGlobalCorrection), whichever parts of the pose it moved
-    // (map_keeps_tilt); with the tilt kept the accelerometer-bias window turned with it.
     if (map_delta_W) v = map_delta_W->linear() * v;
     state_.T_W_B = T_W_B;
     state_.v_W = v;
-    state_covariance_ = imu::Matrix9d::Zero();
-    state_covariance_.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() * std::pow(params_.attitude_sigma_rad, 2);
-    state_covariance_.block<3, 3>(3, 3) = Eigen::Matrix3d::Identity() * std::pow(params_.velocity_sigma_m_s, 2);
     if (on_keyframe) pose_covariance_ = keyframe_->pose_covariance;
     // The reference's rotation error turns this step, and the heading random-walks with the
     // gyro-bias error since the reference (chain_covariance.hpp: the global search's sigma).
-    const double bias_time_constant_s = params_.gyro_bias_gain > 0 ? dt_s / gyroBiasGain(params_, dt_s) : 0.0;
     composeChainCovariance(pose_covariance_, rel_cov, T_W_ref.rotation(),
                            T_W_R0.translation() - map_shift_W - T_W_ref.translation(),
-                           headingVariance(params_.heading_bias_error_rad_s, bias_time_constant_s, dt_ref_s));
+                           headingVariance(params_.heading_bias_error_rad_s, params_.heading_bias_time_constant_s,
+                                           dt_ref_s));
     // The keyframe this frame was tracked against moves with it (the same delta in W as
     // applyGlobalCorrection composes), so the frames tracked against it next keep the map's
     // correction instead of falling back to where the odometry alone put them; its
@@ -722,111 +635,39 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
         shrinkCovariance(keyframe_->pose_covariance, inline_revisit->covariance_scale,
                          inline_revisit->added_position_variance_m2);
     }
-    if (have_imu) {
-      // Vision minus prediction, map corrections excluded: both the windows and the leak read it.
-      const Eigen::Vector3d innovation_W = T_W_B.translation() - map_shift_W - pred.state.T_W_B.translation();
-      coasting_leak_.fix(innovation_W, dt_s, frame.t_ns);
-    } else {
-      coasting_leak_.reset();
-    }
-    coasting_.stop();
-    coasting_leak_applied_ = false;
+    fix_pose_covariance_ = pose_covariance_;
     r.source = PoseSource::kVision;
-  } else {
-    // Vision failed: coast on the IMU, flagged, with the covariance it deserves.
-    const Eigen::Vector3d bg = state_.gyro_bias_rad_s, ba = state_.accel_bias_m_s2;
-    const Eigen::Matrix3d prev_state_R = state_.T_W_B.rotation();
-    const int64_t prev_state_t_ns = state_.t_ns;
-    const Eigen::Vector3d prev_state_v = state_.v_W;
-    state_ = pred.state;
-    state_.gyro_bias_rad_s = bg;
-    state_.accel_bias_m_s2 = ba;
-    state_covariance_ = pred.covariance;
-    if (have_imu) {
-      // One correlated error state from the last visual fix (core/imu/coasting_covariance.hpp):
-      // summing per-frame covariances would drop the velocity, tilt and bias correlations
-      // that make dead-reckoning error grow with the square of time.
-      if (!coasting_.active()) {
-        coasting_correction_ = CoastingCorrection::kBare;
-        coast_start_pose_covariance_ = pose_covariance_;
-        coasting_.start({params_.attitude_sigma_rad, params_.velocity_sigma_m_s, gyro_bias_sigma_rad_s_,
-                         params_.accel_bias_sigma_m_s2});
-        // The velocity fitted over the last visual fixes replaces the last frame's
-        // (a whole frame's position residual over 0.1 s), with the uncertainty of that fit.
-        // Dead reckoning is linear in its start velocity, so this frame's prediction moves by
-        // the difference times dt.
-        const std::optional<imu::HandoverVelocity> hv =
-            params_.coasting_velocity_window_s > 0
-                ? handover_.velocity({params_.coasting_velocity_window_s, params_.coasting_velocity_min_fixes,
-                                      params_.coasting_acceleration_min_fixes})
-                : std::nullopt;
-        if (hv) {
-          coasting_correction_ = CoastingCorrection::kHandoverFit;
-          const Eigen::Vector3d dv = hv->v_W - prev_state_v;
-          state_.T_W_B.translation() += dv * dt_s;
-          state_.v_W += dv;
-          const Eigen::Vector3d f_B = interval.empty()
-                                          ? Eigen::Vector3d(prev_state_R.transpose() * -imu::gravityW())
-                                          : Eigen::Vector3d(interval.front().accel_m_s2 - ba);
-          if (hv->has_acceleration)
-            coasting_.setMeasuredMotion(hv->covariance, hv->velocity_acceleration_covariance,
-                                        hv->acceleration_covariance, hv->acceleration_error, prev_state_R);
-          else
-            coasting_.setMeasuredVelocity(hv->covariance, hv->age_s, prev_state_R, f_B);
-        } else if (const std::optional<imu::LeakEstimate> leak =
-                       params_.coasting_leak_correction ? coasting_leak_.estimate(frame.t_ns, params_.coasting_leak)
-                                                        : std::nullopt) {
-          // 1 Hz: no handover fit; the leak the last steady fixes agree on
-          // (core/imu/coasting_leak.hpp). The last fix left the velocity low by the leak x
-          // dt / 2 (its error is the correction's error times that lag); the correction then
-          // acts on every coasted interval below. Fixes that disagree correct nothing and
-          // only widen the covariance by a leak of their size.
-          const Eigen::Vector3d dv = leak->acceleration_W * leak->velocity_lag_s;
-          state_.T_W_B.translation() += dv * dt_s;
-          state_.v_W += dv;
-          const Eigen::Matrix3d velocity_cov =
-              Eigen::Matrix3d::Identity() * std::pow(params_.velocity_sigma_m_s, 2) +
-              leak->velocity_lag_s * leak->velocity_lag_s * leak->covariance;
-          coasting_.setMeasuredMotion(velocity_cov, leak->velocity_lag_s * leak->covariance, leak->covariance,
-                                      leak->acceleration_W, prev_state_R);
-          coasting_leak_applied_ = leak->consistent;
-          coasting_correction_ =
-              leak->consistent ? CoastingCorrection::kAgreedLeak : CoastingCorrection::kCovarianceOnly;
-        }
-      }
-      // The acceleration the IMU missed before the loss, measured by the fit (mostly the
-      // visual tilt's error times g), is added to the dead reckoning over this interval.
-      const Eigen::Vector3d& da = coasting_.accelerationCorrection();
-      state_.T_W_B.translation() += 0.5 * da * dt_s * dt_s;
-      state_.v_W += da * dt_s;
-      coasting_.propagate(prev_state_R, bg, ba, interval, prev_state_t_ns, frame.t_ns, imu_noise_);
-      pose_covariance_ = coast_start_pose_covariance_ + coasting_.poseCovariance(state_.T_W_B.rotation());
-    } else {
-      accumulate(pose_covariance_, relativeCovariance(pred.covariance), Eigen::Matrix3d::Identity());
-    }
-    T_W_B = state_.T_W_B;
+  } else if (have_imu) {
+    // Vision refused: coast on the filter's propagation from the previous frame, flagged. The
+    // covariance is the last fix's plus what the filter's grew by since: its velocity, tilt and
+    // bias errors with their correlations make dead-reckoning error grow with time squared.
+    T_W_B = orthonormalized(prev.T_W_R0 * T_B_R0.inverse() * bodyMotion(inertial_motion));
     T_W_R0 = T_W_B * T_B_R0;
+    const NavState f = filter_.state();
+    state_.T_W_B = T_W_B;
+    state_.v_W = T_W_B.rotation() * f.T_W_B.rotation().transpose() * f.v_W;
+    pose_covariance_ = fix_pose_covariance_ + positivePart(filter_.poseCovarianceW() - fix_filter_covariance_);
     r.source = PoseSource::kImuOnly;
-    r.coasting = have_imu ? coasting_correction_ : CoastingCorrection::kNoImu;
+    r.coasting = CoastingCorrection::kInertial;
     r.refusal = refusal;
-    handover_.reset();
-    coasting_leak_.coast();
+  } else {
+    // No IMU: the constant-velocity prediction, its loose covariance composed onto the chain's.
+    T_W_R0 = orthonormalized(prev.T_W_R0 * T_prev_curr_pred);
+    T_W_B = orthonormalized(T_W_R0 * T_B_R0.inverse());
+    state_.T_W_B = T_W_B;
+    composeChainCovariance(pose_covariance_, pred_cov, prev.T_W_R0.rotation(),
+                           T_W_R0.translation() - prev.T_W_R0.translation(), 0.0);
+    r.source = PoseSource::kImuOnly;
+    r.coasting = CoastingCorrection::kNoImu;
+    r.refusal = refusal;
   }
-  // While the vehicle still holds still after start-up, every interval refines the gyro bias.
-  if (still_start_ && have_imu) {
-    const Eigen::Isometry3d motion = prev.T_W_R0.inverse() * T_W_R0;
-    const bool vision_still = r.source == PoseSource::kVision && motion.translation().norm() < 2e-3 &&
-                              se3::angle(motion) < 1e-3;
-    if (vision_still && imu::gyroBiasAtRest(interval, 0.5 * dt_s)) {
-      for (const ImuSample& s : interval) still_gyro_sum_ += s.gyro_rad_s;
-      still_samples_ += static_cast<int>(interval.size());
-      state_.gyro_bias_rad_s = still_gyro_sum_ / still_samples_;
-      const double still_s = still_samples_ / std::max(imu_noise_.rate_hz, 1.0);
-      gyro_bias_sigma_rad_s_ = std::max(params_.gyro_bias_sigma_at_rest_rad_s,
-                                        imu_noise_.gyroscope_noise_density / std::sqrt(std::max(still_s, 1e-3)));
-    } else {
-      still_start_ = false;
-    }
+  if (have_imu) {
+    const NavState f = filter_.state();
+    state_.gyro_bias_rad_s = f.gyro_bias_rad_s;
+    state_.accel_bias_m_s2 = f.accel_bias_m_s2;
+    // A visual fix anchors the filter's position; coasting frames keep what accrues since.
+    filter_.clonePose(r.source == PoseSource::kVision);
+    if (r.source == PoseSource::kVision) fix_filter_covariance_ = filter_.poseCovarianceW();
   }
   state_.t_ns = frame.t_ns;
   if (!finitePose(state_.T_W_B) || !state_.v_W.allFinite()) {
@@ -837,77 +678,11 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     r.source = PoseSource::kImuOnly;
     r.coasting = CoastingCorrection::kHeld;
     r.refusal = {Refusal::kNonFinite, 0, 0};
-    handover_.reset();
-    coasting_leak_.reset();
+    if (filter_.started()) filter_stale_ = true;  // restarts from the held state
   }
+  previous_coasted_ = r.source != PoseSource::kVision;
   last_motion_ = prev.T_W_R0.inverse() * T_W_R0;
   last_dt_s_ = dt_s;
-  if (params_.gyro_bias_gravity_window_s > 0 &&
-      !(params_.accel_bias_estimation && params_.accel_bias.gyro_bias_states)) {
-    // Tilt rates of the gyro bias from gravity (core/imu/gravity_bias_observer.hpp): only over
-    // contiguous visual frames, and once the still start ended. A map correction of this frame
-    // moves the chain: the observer's windows and this interval's start follow it into the
-    // corrected frame (the interval ends at the corrected pose).
-    if (r.source == PoseSource::kVision && have_imu && !interval.empty() && !still_start_) {
-      Eigen::Vector3d p0_W = p_start_W;
-      Eigen::Matrix3d R0_W_B = R_start_W_B;
-      if (map_delta_W) {
-        gravity_bias_.moveChain(*map_delta_W);
-        p0_W = *map_delta_W * p0_W;
-        R0_W_B = map_delta_W->linear() * R0_W_B;
-      }
-      const Eigen::Vector3d f_B = meanSpecificForce(interval, state_.accel_bias_m_s2);
-      const Eigen::Matrix3d R_mid = midAttitude(R0_W_B, state_.T_W_B.rotation());
-      if (const auto eps = gravity_bias_.add(t_start_ns, p0_W, state_.t_ns, state_.T_W_B.translation(), R_mid, f_B,
-                                             state_.T_W_B.rotation()))
-        state_.gyro_bias_rad_s += params_.gyro_bias_gravity_gain * *eps;
-    } else {
-      gravity_bias_.reset();
-    }
-  }
-
-  // The two absolute tilt references below come after the tilt-rate observer has taken this
-  // interval: the chain turns they apply move the observer's windows with it (turnChain), so
-  // it does not read their step as a gyro-bias rate and steer the chain back.
-  if (params_.accel_bias_estimation && have_imu) {
-    // Accelerometer bias and tilt (accel_bias_estimation, core/imu/accel_bias_estimator.hpp):
-    // this interval into the window; a fix that ends a long enough window updates the filter,
-    // which turns the chain's roll/pitch (about the current position, keyframe and previous
-    // frame with it, as a map correction does) and sets the bias the next prediction uses.
-    // Coasting, or a map correction that moved the frame, interrupts the velocity chain;
-    // unless the map only turns the heading (map_keeps_tilt): the window turns with it.
-    const bool map_moved = map_delta_W || inline_revisit;
-    const bool fix = r.source == PoseSource::kVision && (!map_moved || params_.map_keeps_tilt);
-    if (!fix) accel_bias_.breakWindow();
-    if (fix && map_delta_W) accel_bias_.turnWindow(map_delta_W->linear());
-    accel_bias_.addInterval(R_start_W_B, state_.gyro_bias_rad_s, interval, t_start_ns, frame.t_ns);
-    if (fix) {
-      if (accel_bias_.close(state_.v_W) == imu::AccelBiasEstimator::Outcome::kUpdated) {
-        turnChain(se3::expSO3(accel_bias_.tiltCorrection()), T_W_R0);
-        state_.gyro_bias_rad_s += accel_bias_.gyroBiasCorrection();
-      }
-      if (!accel_bias_.windowOpen()) accel_bias_.startWindow(state_.v_W);
-    }
-    state_.accel_bias_m_s2 = accel_bias_.bias();
-  }
-  if (params_.gravity_tilt_time_constant_s > 0 && !params_.accel_bias_estimation && r.source == PoseSource::kVision &&
-      have_imu && dt_s > 1e-3 && !interval.empty()) {
-    // Gravity as the tilt reference (see gravity_tilt_time_constant_s): the mean specific
-    // force over the interval, turned into W at the interval's middle attitude, against the
-    // world acceleration vision measured (velocity change) minus gravity. Heading is not
-    // observed by gravity, so only the horizontal axes of the misalignment are corrected.
-    const Eigen::Vector3d f_B = meanSpecificForce(interval, state_.accel_bias_m_s2);
-    const Eigen::Matrix3d R_mid = midAttitude(R_start_W_B, state_.T_W_B.rotation());
-    const Eigen::Vector3d a_W = (state_.v_W - v_start_W) / dt_s;
-    const Eigen::Vector3d measured = R_mid * f_B, expected = a_W - imu::gravityW();
-    if (measured.norm() > 1.0 && expected.norm() > 1.0) {
-      Eigen::Vector3d misalignment = measured.normalized().cross(expected.normalized());
-      misalignment.z() = 0;
-      const double gain = 1.0 - std::exp(-dt_s / params_.gravity_tilt_time_constant_s);
-      turnChain(se3::expSO3(gain * misalignment), T_W_R0);
-    }
-  }
-
   publishState(r);
   if (params_.mode == Mode::kGlobal && r.source == PoseSource::kVision && shed_.global_step) {
     if (deferred_) {
@@ -928,31 +703,10 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
         on_keyframe && r.source == PoseSource::kVision && inliers >= params_.keyframe_min_inliers &&
         inliers >= params_.keyframe_min_inlier_ratio * keyframe_->first_inliers &&
         (keyframe_->T_W_R0.inverse() * T_W_R0).translation().norm() <= params_.keyframe_max_distance_m;
-    if (on_keyframe && r.source == PoseSource::kVision) ++keyframe_->frames_tracked;
     if (keep) {
       keyframe_->R_kf_prev_gyro = R_ref_curr_gyro;
       keyframe_->gyro_covariance = ref_gyro_cov + pred_cov.topLeftCorner<3, 3>();
     } else {
-      if (bias_per_keyframe && on_keyframe && r.source == PoseSource::kVision && have_imu && !still_start_ &&
-          params_.gyro_bias_gain > 0 && dt_ref_s > 1e-6) {
-        // The span's last frame: gyro against the prior-free four-view rotation over the whole
-        // keyframe interval (its visual noise divided by the longest dt). The gain of the
-        // frames served keeps the filter's bandwidth per second that of the per-frame update.
-        const MotionRefinementResult alone =
-            refineMotion(rig, quads, ransac.inliers, ransac.T_prev_curr, RotationPrior{}, params_.refinement,
-                         work_.refinement);
-        if (alone.ok) {
-          const int n = std::max(keyframe_->frames_tracked, 1);
-          const double gain = std::min(1.0, gyroBiasGain(params_, dt_s) * n);
-          const Eigen::Vector3d residual =
-              se3::logSO3(R_ref_curr_gyro.transpose() * alone.T_prev_curr.rotation()) / dt_ref_s;
-          state_.gyro_bias_rad_s -= gain * weightTilt(T_B_R0.rotation() * residual, state_.T_W_B.rotation(),
-                                                      params_.gyro_bias_vision_tilt_weight);
-          gyro_bias_sigma_rad_s_ =
-              std::max(params_.gyro_bias_sigma_at_rest_rad_s, gyro_bias_sigma_rad_s_ * std::pow(0.99, n));
-        }
-        r.times.tensor_ms += timer.lap_ms();
-      }
       newKeyframe(frame, T_W_R0, r.t_ns);
     }
   }
@@ -1047,43 +801,6 @@ void Odometry::publishState(OdometryResult& r) {
   r.T_W_B = state_.T_W_B;
   r.v_W = state_.v_W;
   r.covariance = pose_covariance_;
-  if (!params_.accel_bias_estimation || !params_.accel_bias_start_frame) return;
-  // The chain's increments turned into the start-up frame (accel_bias_start_frame): a change of
-  // the start-up tilt's estimate turns what follows, never what was already published.
-  const Eigen::Matrix3d R_0 = se3::expSO3(accel_bias_.initialTilt());
-  published_p_W_ += R_0 * (state_.T_W_B.translation() - published_from_p_W_);
-  published_from_p_W_ = state_.T_W_B.translation();
-  r.T_W_B.linear() = R_0 * state_.T_W_B.linear();
-  r.T_W_B.translation() = published_p_W_;
-  r.v_W = R_0 * state_.v_W;
-  Matrix6d J = Matrix6d::Zero();
-  J.topLeftCorner<3, 3>() = J.bottomRightCorner<3, 3>() = R_0;
-  r.covariance = J * pose_covariance_ * J.transpose();
-}
-
-void Odometry::turnChain(const Eigen::Matrix3d& R, Eigen::Isometry3d& T_W_R0) {
-  Eigen::Isometry3d D = Eigen::Isometry3d::Identity();
-  D.linear() = R;
-  D.translation() = state_.T_W_B.translation() - D.linear() * state_.T_W_B.translation();
-  state_.T_W_B = orthonormalized(D * state_.T_W_B);
-  state_.v_W = D.linear() * state_.v_W;
-  T_W_R0 = orthonormalized(D * T_W_R0);
-  if (keyframe_) keyframe_->T_W_R0 = orthonormalized(D * keyframe_->T_W_R0);
-  gravity_bias_.moveChain(D);
-}
-
-Eigen::Matrix3d Odometry::gyroBiasRotationCovariance(const Eigen::Matrix3d& R_B_R0, double dt_s) const {
-  if (!params_.gyro_bias_prior_tilt_from_filter || !params_.accel_bias_estimation ||
-      !params_.accel_bias.gyro_bias_states)
-    return Eigen::Matrix3d::Identity() * std::pow(gyro_bias_sigma_rad_s_ * dt_s, 2);  // the same in every frame
-  // The tilt rates are the accelerometer-bias filter's states (vision learns the heading only,
-  // gyro_bias_vision_tilt_weight 0). Gravity pins them within a leg (5e-5 rad/s), well below the
-  // floor the heading keeps; the floor on them let a 1 Hz step's prior-free pitch, which trades
-  // with surge over a flat floor (paper III-C) and has a mean of ~3e-4 rad per step, into
-  // the attitude (git history of docs/benchmarks.md).
-  Eigen::Matrix3d cov_B = Eigen::Matrix3d::Identity() * gyro_bias_sigma_rad_s_ * gyro_bias_sigma_rad_s_;
-  cov_B.topLeftCorner<2, 2>() = accel_bias_.gyroBiasCovariance();
-  return R_B_R0.transpose() * cov_B * R_B_R0 * (dt_s * dt_s);
 }
 
 }  // namespace seavio::odometry

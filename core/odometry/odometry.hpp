@@ -14,12 +14,7 @@
 #include "core/odometry/load_shedding.hpp"
 #include "core/geometry/quadrifocal_ransac.hpp"
 #include "core/icp/icp.hpp"
-#include "core/imu/accel_bias_estimator.hpp"
-#include "core/imu/coasting_covariance.hpp"
-#include "core/imu/coasting_handover.hpp"
-#include "core/imu/coasting_leak.hpp"
 #include "core/imu/error_state_filter.hpp"
-#include "core/imu/gravity_bias_observer.hpp"
 #include "core/imu/imu_integrator.hpp"
 #include "core/map/frame_map.hpp"
 #include "core/odometry/frontend.hpp"
@@ -78,9 +73,10 @@ struct OdometryParams {
   geometry::QuadRansacParams ransac;
   icp::IcpParams icp;
   map::FrameMapParams map;
-  /// The inertial estimator (core/imu/error_state_filter.hpp) whose motion prediction prunes
-  /// the matching and primes RANSAC and the rotation prior (III-A/C), updated by each frame's
-  /// vision-only motion. Its noise model is the IMU's (ImuNoise), whatever `inertial.noise` says.
+  /// The inertial estimator (core/imu/error_state_filter.hpp, paper III-A): its motion since
+  /// the previous frame, with its covariance, prunes the matching and primes RANSAC and the
+  /// rotation prior (III-C); each frame's vision-only motion updates it through a chi-square
+  /// gate; a refused frame coasts on it. Its noise model is the IMU's (ImuNoise).
   imu::ErrorStateParams inertial;
   bool use_rotation_prior = true;            ///< refine with the gyro rotation as a prior
   /// With upright SURF (features.surf.upright): describe every keypoint along the direction of
@@ -125,123 +121,22 @@ struct OdometryParams {
   /// ...or its inliers fall below this fraction of those of the first frame tracked against it...
   double keyframe_min_inlier_ratio = 0.5;
   int keyframe_min_inliers = 40;  ///< ...or below this count
-  double initial_velocity_sigma_m_s = 1.0;   ///< unknown start velocity [m/s]
-  double velocity_sigma_m_s = 0.05;          ///< after a visual fix [m/s]
-  double attitude_sigma_rad = 0.005;         ///< after a visual fix [rad]
-  /// Fraction of the visual gyro-bias residual applied per frame (at gyro_bias_gain_interval_s).
-  /// With the accelerometer-bias filter holding the tilt, 0.02 follows the bias walk of the
-  /// full 1 Hz paper-plain survey more closely and is neutral on the 10 Hz short surveys
-  /// (git history of docs/benchmarks.md).
-  double gyro_bias_gain = 0.02;
-  /// Frame interval at which gyro_bias_gain holds [s]; at other intervals the gain per frame
-  /// scales with sqrt(interval / this). A steady-state Kalman gain for a random-walk bias is
-  /// sqrt(Q / R), Q (the walk over one frame) grows with the interval and R (the visual
-  /// residual in rad/s) was measured about the same at 10 Hz and 1 Hz (0.95e-3 / 1.1e-3 rad/s rms on
-  /// the heading), so 0.01 at 10 Hz is 0.032 at 1 Hz, not 0.01 (a 100 s lag behind the bias
-  /// walk on the 1 Hz survey) nor 0.1 (a 10 s time constant: noisier). 0 = per frame at any rate.
-  /// On (0.1) because 1 Hz coasting uses the leak the fixes agree on (coasting_leak.hpp):
-  /// without that, snow lost twice as many frames to coasting with it (docs/architecture.md).
-  double gyro_bias_gain_interval_s = 0.1;
-  /// Keyframe tracking: learn the gyro bias once per keyframe, from the frame that ends its
-  /// span (the longest gyro/vision baseline, so the least visual noise per rad/s), with the
-  /// gain of the frames it served, instead of from every frame's short, noisy span. Saves the
-  /// prior-free refinement on all other frames. Off, or without keyframes: every frame.
-  /// Off by default: on 800-frame surveys it cut the snow drift
-  /// but raised the plain final error on seeds 5, 11 and 37 (docs/architecture.md).
-  bool gyro_bias_per_keyframe = false;
-  double gyro_bias_sigma_at_rest_rad_s = 3e-4;  ///< bias uncertainty after a still start [rad/s]
-  double gyro_bias_sigma_unknown_rad_s = 3e-3;  ///< bias uncertainty without one [rad/s]
-  /// Weight of the tilt part (roll/pitch: perpendicular to gravity in the body frame) of the
-  /// visual gyro-bias residual. Over a flat floor the prior-free visual rotation
-  /// couples pitch with surge (paper III-C), so that part carries a rate proportional to speed
-  /// which the bias learnt and the gyro prior then put into the attitude (2.5 mrad/s of pitch on
-  /// short-plain seed 23). 1 = learn all of it; 0 = vision learns the heading rate only and the
-  /// tilt rates come from gravity (gyro_bias_gravity_window_s) or stay at the still start's.
-  double gyro_bias_vision_tilt_weight = 0.0;
-  /// The rotation prior's gyro-bias term per axis: the tilt rates (body x, y) with the
-  /// covariance the accelerometer-bias filter holds for them (accel_bias.gyro_bias_states),
-  /// which shrinks as gravity shows the tilt they turn (~5e-5 rad/s within a leg), the heading
-  /// with gyro_bias_sigma's. Off: gyro_bias_sigma on all three axes, whatever the filter
-  /// knows. On: with the feature controller's inlier target the 1 Hz vertical error doubles
-  /// without it (git history of docs/benchmarks.md); a tighter floor on all axes instead (6e-5) costs the
-  /// 10 Hz tilt.
-  bool gyro_bias_prior_tilt_from_filter = true;
-  /// Tilt rates of the gyro bias from gravity (core/imu/gravity_bias_observer.hpp): the change,
-  /// from one pair of windows of this length [s] to the next, of the accelerometer's specific
-  /// force against vision's acceleration and gravity, in the body frame (a constant
-  /// accelerometer bias cancels). 0 = off; not run with accel_bias_estimation and
-  /// accel_bias.gyro_bias_states, which estimate the same rates in one filter. 1 s at 10 Hz:
-  /// short surveys' tilt drift follows twice as closely as with 2 s windows, and 4 s lost on 18
-  /// of 20 (git history of docs/benchmarks.md, "Tilt-rate windows").
-  double gyro_bias_gravity_window_s = 1.0;
-  /// ...and at least this many frame intervals: at 1 Hz a window is then 2 s (a one-frame
-  /// window is too noisy: it raises the 0.1-scale plain surveys' error).
-  int gyro_bias_gravity_window_min_frames = 2;
-  double gyro_bias_gravity_gain = 0.2;          ///< fraction of each measured tilt rate applied
-  double gyro_bias_gravity_max_turn_rad = 0.05; ///< heading change that stops a comparison [rad]
-  /// The accelerometer bias is not estimated: while coasting its whole spread counts (the
-  /// simulator's 0.02 m/s^2 initial sigma plus its random walk over a survey) [m/s^2].
-  double accel_bias_sigma_m_s2 = 0.03;
-  /// Coasting hand-over: the velocity coasting starts from is fitted over the visual
-  /// fixes of this last stretch [s] (at least `coasting_velocity_min_fixes` of them), with that
-  /// fit's covariance; 0: the last frame's velocity with `velocity_sigma_m_s`. From
-  /// `coasting_acceleration_min_fixes` fixes on (0: never) the fit also measures the
-  /// acceleration the IMU missed (tilt x g, accelerometer bias) and coasting corrects for it.
-  double coasting_velocity_window_s = 2.0;
-  int coasting_velocity_min_fixes = 4;
-  int coasting_acceleration_min_fixes = 10;
-  /// Coasting at low frame rates (core/imu/coasting_leak.hpp): where the handover fit
-  /// has too few fixes (1 Hz), the acceleration the IMU misses is taken from the innovations of
-  /// the last steady fixes if they agree, and the coasting corrected by it; if they do not,
-  /// only the coasting covariance grows by a leak of their size. Off: the bare prediction.
-  bool coasting_leak_correction = true;
-  imu::LeakParams coasting_leak;
   /// The vehicle and its scene (rig_profile.hpp): the stereo depth band and the speed bound.
   RigProfile rig;
   /// A visual step faster than rig.max_speed_m_s times this is refused as a jump.
   double speed_margin = 2.0;
-  /// Gravity as the tilt reference: after each visual frame the roll and pitch of the chain
-  /// (pose, keyframe, previous frame) are turned towards the accelerometer's gravity, less the
-  /// acceleration vision measured, with this time constant [s]. Visual rotation errors add up
-  /// in roll and pitch over a long survey (1.5 m frames: 45 mrad by frame 400 on paper-plain)
-  /// and leak gravity into the IMU prediction. 0 = off (the default: on the 10 Hz short survey
-  /// it raised the error; docs/architecture.md, global section).
-  double gravity_tilt_time_constant_s = 0.0;
-  /// Accelerometer bias and roll/pitch held to gravity together
-  /// (core/imu/accel_bias_estimator.hpp): a Kalman filter on the disagreement between the
-  /// IMU's specific force and the velocity change vision measured, over windows of
-  /// `accel_bias.window_s`; the 180 deg turns separate the bias (fixed in the body) from the
-  /// chain's tilt (fixed in W). Each update turns the chain's roll/pitch and sets the bias the
-  /// dead reckoning subtracts. Replaces gravity_tilt_time_constant_s when on. The random walk
-  /// and white noise of the bias come from the IMU's noise model, not from these params.
-  /// On by default, with accel_bias_start_frame: it lowers the full paper-plain survey's error
-  /// and leaves the 10 Hz short surveys unchanged; without the start-up frame it costs those
-  /// (git history of docs/benchmarks.md).
-  bool accel_bias_estimation = true;
-  imu::AccelBiasParams accel_bias;
-  /// With accel_bias_estimation: publish in the start-up frame. Levelling on the biased
-  /// accelerometer leaves the chain tilted by the bias's image (b / g, ~3 mrad); the filter
-  /// learns it at the first turns and turns the chain true, and a published path that turned
-  /// with it would bend there by that angle for the rest of the mission (every metre after
-  /// the turn mis-placed by 3 mm against the first leg). The chain stays true for the dead
-  /// reckoning; OdometryResult::T_W_B and v_W are turned back by the start-up tilt as now
-  /// estimated (AccelBiasEstimator::initialTilt), its increments frame by frame, so the
-  /// published path stays in the frame it started in and only the chain's walk is corrected.
-  bool accel_bias_start_frame = true;
-  /// Error (1 sigma) of the heading part of the gyro-bias estimate [rad/s]: the chain's pose
-  /// covariance gains heading variance from it, correlated over the estimator's time constant
-  /// (frame interval / the gain per frame), and turns that into position (chain_covariance.hpp).
-  /// Sizes the global re-observation search; the trajectory of local mode does not use it.
+  /// Error (1 sigma) of the heading part of the gyro-bias estimate [rad/s] and the time over
+  /// which it stays correlated [s]: the chain's pose covariance gains heading variance from it
+  /// (chain_covariance.hpp) and turns that into position. Sizes the global re-observation
+  /// search; the trajectory of local mode does not use it.
   double heading_bias_error_rad_s = 1.5e-4;
+  double heading_bias_time_constant_s = 5.0;
   double min_revisit_age_s = 30.0;           ///< global mode: map frames at least this old trigger ICP [s]
   double max_map_correction_m = 0.03;        ///< global mode: largest accepted ICP correction [m]
   double max_map_correction_rad = 0.005;     ///< ... and rotation [rad]
-  /// Global mode with accel_bias_estimation: a map correction moves the frame's position and
-  /// heading only, and the gravity filter keeps its window through it. Roll and pitch from an
-  /// ICP against a few metres of floor are worth mrad; gravity holds them better, and a
-  /// revisit leg corrected on every frame would otherwise leave the filter blind for the
-  /// whole leg. On: on the full paper-plain survey it about halves the tilt error and leaves
-  /// the position unchanged (git history of docs/benchmarks.md).
+  /// Global mode: a map correction moves the frame's position and heading only. Roll and pitch
+  /// from an ICP against a few metres of floor are worth mrad; the gyro-aided chain holds them
+  /// better.
   bool map_keeps_tilt = true;
   /// Global mode, re-observation (paper III-D: the map bounds the drift when the survey comes
   /// back over older ground): descriptors of a keyframe are kept every this much travel [m]...
@@ -328,12 +223,8 @@ class Odometry {
     int64_t t_ns = 0;
   };
   void initialise(const FrameFeatures& frame, std::span<const ImuSample> imu);
-  /// The state into `r` (T_W_B, v_W, covariance), in the start-up frame with accel_bias_start_frame.
+  /// The state into `r` (T_W_B, v_W, covariance).
   void publishState(OdometryResult& r);
-  /// Turns the chain by `R` (in W) about the current position: the state, the frame's `T_W_R0`
-  /// and the keyframe with it, so the next frame tracked against them carries the correction;
-  /// the gravity tilt-rate observer's windows move too (a correction is no gyro-bias rate).
-  void turnChain(const Eigen::Matrix3d& R, Eigen::Isometry3d& T_W_R0);
   /// Makes the frame just tracked (pose `T_W_R0`, the current pose covariance) the keyframe.
   void newKeyframe(const FrameFeatures& frame, const Eigen::Isometry3d& T_W_R0, int64_t t_ns);
   /// patch_refinement: the matches `indices` of `quads` (temporal matches `temporal` of
@@ -346,10 +237,6 @@ class Odometry {
   /// Deferred mode: the request for the frame just tracked.
   void makeGlobalRequest(const FrameFeatures& frame, const Eigen::Isometry3d& T_W_R0, const OdometryResult& r,
                          bool first_frame);
-  /// The covariance [rad^2] of the rotation a gyro-bias error turns over `dt_s`, in the rig
-  /// frame R0, for the rotation prior (gyro_bias_prior_tilt_from_filter); `R_B_R0` turns rig
-  /// vectors into the body.
-  Eigen::Matrix3d gyroBiasRotationCovariance(const Eigen::Matrix3d& R_B_R0, double dt_s) const;
 
   Frontend frontend_;
   imu::ImuNoise imu_noise_;
@@ -368,30 +255,17 @@ class Odometry {
 
   bool initialised_ = false;
   NavState state_;
-  imu::Matrix9d state_covariance_ = imu::Matrix9d::Zero();
-  double gyro_bias_sigma_rad_s_ = 0;
-  bool still_start_ = true;                 ///< no motion seen yet: the gyro reads its bias
-  Eigen::Vector3d still_gyro_sum_ = Eigen::Vector3d::Zero();
-  imu::GravityBiasObserver gravity_bias_;   ///< gyro_bias_gravity_window_s
-  int still_samples_ = 0;
   Eigen::Matrix<double, 6, 6> pose_covariance_ = Eigen::Matrix<double, 6, 6>::Zero();
-  /// Vision outage: one error covariance from the last visual fix, and the pose
-  /// covariance of that fix; the published covariance is their sum while coasting.
-  imu::CoastingCovariance coasting_;
-  Eigen::Matrix<double, 6, 6> coast_start_pose_covariance_ = Eigen::Matrix<double, 6, 6>::Zero();
-  /// The visual fixes since vision last returned, for the velocity coasting starts from.
-  imu::CoastingHandover handover_;
-  /// The recent fixes' innovations, for coasting where the handover fit does not run.
-  imu::CoastingLeak coasting_leak_;
-  bool coasting_leak_applied_ = false;  ///< this outage's coasting is corrected by coasting_leak_
-  /// What corrects this outage's coasting (OdometryResult::coasting), set at its first frame.
-  CoastingCorrection coasting_correction_ = CoastingCorrection::kBare;
-  /// The inertial estimator: the motion prediction and its covariance.
+  /// The inertial estimator: the motion prediction, its covariance, the biases, coasting.
   imu::ErrorStateFilter filter_;
-  /// Accelerometer bias and tilt (accel_bias_estimation).
-  imu::AccelBiasEstimator accel_bias_;
-  Eigen::Vector3d published_p_W_ = Eigen::Vector3d::Zero();  ///< accel_bias_start_frame: last published position
-  Eigen::Vector3d published_from_p_W_ = Eigen::Vector3d::Zero();  ///< ...and the chain's position it came from
+  /// The IMU stream stopped: the filter starts again from the visual state when it returns.
+  bool filter_stale_ = false;
+  /// The last frame coasted: its chain pose is the filter's prediction, not a measurement.
+  bool previous_coasted_ = false;
+  /// At the last visual fix: the chain's pose covariance and the filter's own; coasting adds
+  /// what the filter's grew by since (its velocity, tilt and bias errors, correlated).
+  Eigen::Matrix<double, 6, 6> fix_pose_covariance_ = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 6> fix_filter_covariance_ = Eigen::Matrix<double, 6, 6>::Zero();
   std::optional<PreviousFrame> previous_;
   /// What the next frame is tracked against (keyframe_tracking): a keyframe, its pose
   /// covariance, and the gyro's rotation from it to the previous frame.
@@ -402,7 +276,6 @@ class Odometry {
     uint64_t id = 0;  ///< 1, 2, ... in the order made (ReferenceAlignments' key)
     Eigen::Matrix<double, 6, 6> pose_covariance = Eigen::Matrix<double, 6, 6>::Zero();
     int first_inliers = 0;  ///< RANSAC inliers of the first frame tracked against it (0: none yet)
-    int frames_tracked = 0; ///< visual frames tracked against it (gyro_bias_per_keyframe's gain)
     Eigen::Matrix3d R_kf_prev_gyro = Eigen::Matrix3d::Identity();  ///< rectified left cameras
     Eigen::Matrix3d gyro_covariance = Eigen::Matrix3d::Zero();    ///< its white-noise part [rad^2]
     cv::Mat left_image, right_image;  ///< patch_refinement only: its own copies

@@ -205,61 +205,23 @@ void visit(V& v, odometry::OdometryParams& p) {
   v.value("keyframe_max_distance_m", p.keyframe_max_distance_m, 0, 1000);
   v.value("keyframe_min_inlier_ratio", p.keyframe_min_inlier_ratio, 0, 1);
   v.value("keyframe_min_inliers", p.keyframe_min_inliers, 3, 100000);
-  v.value("initial_velocity_sigma_m_s", p.initial_velocity_sigma_m_s, 0, 100);
-  v.value("velocity_sigma_m_s", p.velocity_sigma_m_s, 0, 100);
-  v.value("attitude_sigma_rad", p.attitude_sigma_rad, 0, 3.2);
-  v.value("gyro_bias_gain", p.gyro_bias_gain, 0, 1);
-  v.value("gyro_bias_gain_interval_s", p.gyro_bias_gain_interval_s, 0, 1e3);
-  v.flag("gyro_bias_per_keyframe", p.gyro_bias_per_keyframe);
-  v.value("gyro_bias_sigma_at_rest_rad_s", p.gyro_bias_sigma_at_rest_rad_s, 0, 1);
-  v.value("gyro_bias_sigma_unknown_rad_s", p.gyro_bias_sigma_unknown_rad_s, 0, 1);
-  v.value("gyro_bias_vision_tilt_weight", p.gyro_bias_vision_tilt_weight, 0, 1);
-  v.flag("gyro_bias_prior_tilt_from_filter", p.gyro_bias_prior_tilt_from_filter);
-  v.value("gyro_bias_gravity_window_s", p.gyro_bias_gravity_window_s, 0, 1e4);
-  v.value("gyro_bias_gravity_window_min_frames", p.gyro_bias_gravity_window_min_frames, 1, 1000);
-  v.value("gyro_bias_gravity_gain", p.gyro_bias_gravity_gain, 0, 1);
-  v.value("gyro_bias_gravity_max_turn_rad", p.gyro_bias_gravity_max_turn_rad, 0, 3.2);
   v.section("rig", [&] {
     v.value("max_speed_m_s", p.rig.max_speed_m_s, 0.01, 1000);
     v.value("scene_min_depth_m", p.rig.scene_min_depth_m, 0, 10000);
     v.value("scene_max_depth_m", p.rig.scene_max_depth_m, 0, 1e6);
   });
   v.value("speed_margin", p.speed_margin, 1, 100);
-  v.value("gravity_tilt_time_constant_s", p.gravity_tilt_time_constant_s, 0, 1e6);
   v.section("inertial", [&] {
     v.value("gyro_bias_sigma_rad_s", p.inertial.gyro_bias_sigma_rad_s, 1e-7, 1);
     v.value("accel_bias_sigma_m_s2", p.inertial.accel_bias_sigma_m_s2, 1e-6, 10);
-    v.value("initial_velocity_sigma_m_s", p.inertial.initial_velocity_sigma_m_s, 1e-3, 100);
     v.value("moving_tilt_sigma_rad", p.inertial.moving_tilt_sigma_rad, 1e-4, 1);
     v.value("gate_chi2", p.inertial.gate_chi2, 1, 1e6);
     v.value("imu_fault_refusals", p.inertial.imu_fault_refusals, 0, 100000);
     v.value("gyro_range_rad_s", p.inertial.gyro_range_rad_s, 0.1, 1e4);
     v.value("accel_range_m_s2", p.inertial.accel_range_m_s2, 1, 1e5);
   });
-  v.section("accel_bias", [&] {
-    v.flag("enabled", p.accel_bias_estimation);
-    v.value("initial_bias_sigma_m_s2", p.accel_bias.initial_bias_sigma_m_s2, 1e-6, 100);
-    v.value("tilt_random_walk_rad_sqrt_s", p.accel_bias.tilt_random_walk_rad_sqrt_s, 0, 1);
-    v.value("velocity_sigma_m_s", p.accel_bias.velocity_sigma_m_s, 1e-6, 100);
-    v.value("window_s", p.accel_bias.window_s, 0, 1000);
-    v.value("gate_sigmas", p.accel_bias.gate_sigmas, 0.1, 1000);
-    v.flag("gyro_bias_states", p.accel_bias.gyro_bias_states);
-    v.value("gyro_bias_random_walk_rad_s_sqrt_s", p.accel_bias.gyro_bias_random_walk_rad_s_sqrt_s, 0, 1);
-    v.flag("start_frame", p.accel_bias_start_frame);
-  });
-  v.section("coasting_handover", [&] {
-    v.value("velocity_window_s", p.coasting_velocity_window_s, 0, 1000);
-    v.value("velocity_min_fixes", p.coasting_velocity_min_fixes, 2, 10000);
-    v.value("acceleration_min_fixes", p.coasting_acceleration_min_fixes, 0, 10000);
-  });
-  v.section("coasting_leak", [&] {
-    v.flag("enabled", p.coasting_leak_correction);
-    v.value("window_fixes", p.coasting_leak.window_fixes, 1, imu::CoastingLeak::kCapacity);
-    v.value("min_agreeing", p.coasting_leak.min_agreeing, 1, imu::CoastingLeak::kCapacity);
-    v.value("tolerance_fraction", p.coasting_leak.tolerance_fraction, 0, 10);
-    v.value("max_acceleration_m_s2", p.coasting_leak.max_acceleration_m_s2, 0, 100);
-  });
   v.value("heading_bias_error_rad_s", p.heading_bias_error_rad_s, 0, 1);
+  v.value("heading_bias_time_constant_s", p.heading_bias_time_constant_s, 0, 1e6);
   v.value("min_revisit_age_s", p.min_revisit_age_s, 0, 1e9);
   v.value("max_map_correction_m", p.max_map_correction_m, 0, 1000);
   v.value("max_map_correction_rad", p.max_map_correction_rad, 0, 3.2);

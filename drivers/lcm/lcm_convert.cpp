@@ -45,6 +45,7 @@ seavio_lcm::pose_t toPoseMsg(const OdometryResult& r, int64_t publish_t_ns) {
   if (!finite) flags = seavio_lcm::pose_t::FLAG_IMU_ONLY;
   const int refusal = static_cast<int>(finite ? r.refusal.check : Refusal::kNonFinite);
   if (refusal > 0) flags |= seavio_lcm::pose_t::FLAG_REFUSED_STEREO_POINTS << (refusal - 1);
+  if (r.quality.imu_fault) flags |= seavio_lcm::pose_t::FLAG_IMU_FAULT;
   // Refined = the global map moved this pose (paper Sec. III-D/E); frame-to-frame ICP is local.
   flags |= r.quality.map_refined ? static_cast<int32_t>(seavio_lcm::pose_t::FLAG_GLOBAL_REFINED)
                                  : static_cast<int32_t>(seavio_lcm::pose_t::FLAG_LOCAL_ONLY);
@@ -112,6 +113,7 @@ OdometryResult fromPoseMsg(const seavio_lcm::pose_t& m) {
   r.quality.icp_inliers = m.icp_inliers;
   r.quality.icp_rms_m = m.icp_rms_m;
   r.quality.map_refined = (m.flags & seavio_lcm::pose_t::FLAG_GLOBAL_REFINED) != 0;
+  r.quality.imu_fault = (m.flags & seavio_lcm::pose_t::FLAG_IMU_FAULT) != 0;
   for (int k = 1; k < kRefusalKinds; ++k)
     if (m.flags & (seavio_lcm::pose_t::FLAG_REFUSED_STEREO_POINTS << (k - 1))) r.refusal.check = static_cast<Refusal>(k);
   r.times.total_ms = m.processing_ms;

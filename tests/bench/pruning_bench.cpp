@@ -19,7 +19,7 @@ using seavio::testing_support::MatchingScene;
 const MatchingScene& scene() {
   static const std::unique_ptr<MatchingScene> s = [] {
     const auto dir = std::filesystem::temp_directory_path() / "seavio_pruning_bench";
-    // SEAVIO_PRUNING_SEED picks another untuned survey (report the median over seeds).
+    // SEAVIO_PRUNING_SEED picks another tuning-seed survey (report the median over seeds).
     const char* env = std::getenv("SEAVIO_PRUNING_SEED");
     const uint32_t seed = env != nullptr ? static_cast<uint32_t>(std::strtoul(env, nullptr, 10)) : 11u;
     return std::make_unique<MatchingScene>(seavio::testing_support::renderScene(

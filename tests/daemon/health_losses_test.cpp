@@ -1,5 +1,5 @@
-// The daemon's IMU-only counter and, beside it, how those frames coasted: corrected
-// by the leak the last fixes agree on, or covariance-only because they disagreed.
+// The daemon's IMU-only counter with the check that refused each of those frames, and beside
+// it the frames on which the IMU was judged at fault.
 #include <gtest/gtest.h>
 
 #include "daemon/health.hpp"
@@ -8,29 +8,30 @@ namespace seavio::daemon {
 namespace health_losses_test {
 namespace {
 
-OdometryResult result(PoseSource source, CoastingCorrection coasting) {
+OdometryResult result(PoseSource source, Refusal refusal, bool imu_fault = false) {
   OdometryResult r;
   r.source = source;
-  r.coasting = coasting;
+  r.coasting = source == PoseSource::kImuOnly ? CoastingCorrection::kInertial : CoastingCorrection::kNone;
+  r.refusal.check = refusal;
+  r.quality.imu_fault = imu_fault;
   return r;
 }
 
-TEST(HealthLosses, ImuOnlyFramesAreCountedWithHowTheirCoastingWasCorrected) {
+TEST(HealthLosses, ImuOnlyFramesAreCountedByTheirRefusalAndImuFaultsApart) {
   // GIVEN fresh counters
   HealthCounters h;
-  // WHEN visual frames and IMU-only frames of every kind are counted
-  countImuOnly(h, result(PoseSource::kInit, CoastingCorrection::kNone));
-  countImuOnly(h, result(PoseSource::kVision, CoastingCorrection::kNone));
-  countImuOnly(h, result(PoseSource::kImuOnly, CoastingCorrection::kAgreedLeak));
-  countImuOnly(h, result(PoseSource::kImuOnly, CoastingCorrection::kAgreedLeak));
-  countImuOnly(h, result(PoseSource::kImuOnly, CoastingCorrection::kCovarianceOnly));
-  countImuOnly(h, result(PoseSource::kImuOnly, CoastingCorrection::kBare));
-  countImuOnly(h, result(PoseSource::kImuOnly, CoastingCorrection::kHandoverFit));
-  countImuOnly(h, result(PoseSource::kImuOnly, CoastingCorrection::kHeld));
-  // THEN every IMU-only frame counts once, and of them the agreed-leak and covariance-only ones
-  EXPECT_EQ(h.imu_only_frames.load(), 6u);
-  EXPECT_EQ(h.imu_only_leak_corrected.load(), 2u);
-  EXPECT_EQ(h.imu_only_covariance_only.load(), 1u);
+  // WHEN visual frames (one with the IMU judged at fault) and IMU-only frames are counted
+  countPose(h, result(PoseSource::kInit, Refusal::kNone));
+  countPose(h, result(PoseSource::kVision, Refusal::kNone));
+  countPose(h, result(PoseSource::kVision, Refusal::kNone, true));
+  countPose(h, result(PoseSource::kImuOnly, Refusal::kInertialGate));
+  countPose(h, result(PoseSource::kImuOnly, Refusal::kInertialGate));
+  countPose(h, result(PoseSource::kImuOnly, Refusal::kInliers));
+  // THEN every IMU-only frame counts once, under the check that refused it, and the fault once
+  EXPECT_EQ(h.imu_only_frames.load(), 3u);
+  EXPECT_EQ(h.imu_only_refused[static_cast<std::size_t>(Refusal::kInertialGate)].load(), 2u);
+  EXPECT_EQ(h.imu_only_refused[static_cast<std::size_t>(Refusal::kInliers)].load(), 1u);
+  EXPECT_EQ(h.imu_faults.load(), 1u);
 }
 
 }  // namespace

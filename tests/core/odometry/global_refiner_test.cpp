@@ -161,7 +161,7 @@ TEST(GlobalRefiner, IcpPullsADriftedFrameBackWithinTheGateAndRefusesLargerJumps)
   EXPECT_TRUE(large.correction_W.isApprox(Eigen::Isometry3d::Identity(), 1e-9));
 }
 
-TEST(GlobalRefiner, WithTheTiltKeptTheMapMovesPositionAndHeadingAndLeavesRollAndPitchToGravity) {
+TEST(GlobalRefiner, WithTheTiltKeptTheMapMovesPositionAndHeadingAndLeavesRollAndPitchToTheChain) {
   // GIVEN a keyframe of the floor stored 40 s ago at the true pose, and the same ground seen
   // again with the odometry 1.5 cm off, turned 3 mrad in heading and pitched 3 mrad
   camera::StereoRectifier rect = makeRectifier();
@@ -175,8 +175,7 @@ TEST(GlobalRefiner, WithTheTiltKeptTheMapMovesPositionAndHeadingAndLeavesRollAnd
                          .toRotationMatrix() * T_W_R0.linear();
   const auto correctWith = [&](bool keep_tilt) {
     OdometryParams p = globalParams();
-    p.map_keeps_tilt = true;
-    p.accel_bias_estimation = keep_tilt;  // the tilt is kept only where gravity holds it
+    p.map_keeps_tilt = keep_tilt;
     GlobalRefiner refiner(rig, globalRefinerParams(p));
     std::mt19937 rng(1);
     GlobalRequest first = requestAt(0, 0.0, T_W_R0, survey.frame(0, 0.0, T_W_B, 0.0));
@@ -404,10 +403,10 @@ SurveyRun runSurvey(int delay_frames, OdometryParams params = globalParams(), in
       EXPECT_EQ(r.quality.model_points, 0) << "deferred: no map work on the estimator";
       if (std::optional<GlobalRequest> q = odo.takeGlobalRequest()) {
         EXPECT_EQ(q->frame_id, static_cast<uint64_t>(f));
-        // The published pose is the chain's seen in the published frame (the daemon's contract)
-        EXPECT_TRUE((q->T_published_W * q->T_W_R0 * rig.T_B_R0.inverse()).isApprox(r.T_W_B, 1e-9)) << "frame " << f;
+        // The published pose is the chain's (the daemon's contract)
+        EXPECT_TRUE((q->T_W_R0 * rig.T_B_R0.inverse()).isApprox(r.T_W_B, 1e-9)) << "frame " << f;
         const GlobalCorrection c = refiner.refine(*q, refiner_rng);
-        run.est[f] = (publishedCorrection(*q, c) * r.T_W_B).translation();
+        run.est[f] = (c.correction_W * r.T_W_B).translation();
         if (c.changed()) ++run.changed;
         pending.push_back({f + 1 + f % delay_frames, c});
       }
@@ -423,12 +422,8 @@ double maxError(const SurveyRun& r) {
 }
 
 TEST(OdometryDeferredGlobal, CorrectionsAppliedOneToThreeFramesLateTrackTheInlinePath) {
-  // GIVEN the same revisit survey run inline and deferred (corrections 1-3 frames late), the
-  // accelerometer-bias filter off: a map correction breaks its velocity window on the frame it
-  // lands, so its updates (and tilt) differ between the two by when the corrections land, not
-  // by how they are applied (with it on: 34 mm apart, inline 30 mm from the truth, deferred 24)
+  // GIVEN the same revisit survey run inline and deferred (corrections 1-3 frames late)
   OdometryParams params = globalParams();
-  params.accel_bias_estimation = false;
   const SurveyRun inline_run = runSurvey(0, params);
   const SurveyRun deferred = runSurvey(3, params);
   // THEN the map worked in both, and the refined trajectories stay close to each other and
@@ -487,29 +482,6 @@ TEST(OdometryDeferredGlobal, ACorrectionMovesTheCurrentPoseAndTheNextPrediction)
   EXPECT_EQ(b.revisitCorrections(), 1);
 }
 
-TEST(OdometryDeferredGlobal, ACorrectionOfTheChainMovesThePublishedPoseAsItMovedTheChainsInTheStartUpFrame) {
-  // GIVEN a frame whose pose is published in the start-up frame, 30 mrad of levelling error
-  // (pitch) and 2 m away from the chain's W, and a map correction of 1 m along the chain's x
-  // with a 5 mrad turn in yaw
-  const Eigen::Isometry3d T_W_B_chain = Eigen::Translation3d(40.0, 12.0, -3.0) * Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ());
-  GlobalRequest q;
-  q.T_published_W = Eigen::Translation3d(2.0, 0.0, 0.0) * Eigen::AngleAxisd(0.03, Eigen::Vector3d::UnitY());
-  q.local.T_W_B = q.T_published_W * T_W_B_chain;
-  GlobalCorrection c;
-  c.correction_W = Eigen::Translation3d(1.0, 0.0, 0.0) * Eigen::AngleAxisd(0.005, Eigen::Vector3d::UnitZ());
-  // WHEN it is turned into the published frame
-  const Eigen::Isometry3d refined = publishedCorrection(q, c) * q.local.T_W_B;
-  // THEN the refined published pose is the refined chain pose seen in the published frame,
-  // where composing the chain's delta as it is would be 30 mm out of level (1 m x 30 mrad)
-  const Eigen::Isometry3d expected = q.T_published_W * c.correction_W * T_W_B_chain;
-  EXPECT_LT((refined.translation() - expected.translation()).norm(), 1e-9);
-  EXPECT_TRUE(refined.linear().isApprox(expected.linear(), 1e-12));
-  EXPECT_GT(((c.correction_W * q.local.T_W_B).translation() - expected.translation()).norm(), 0.02);
-  // AND with no start-up tilt it is the chain's delta itself
-  q.T_published_W.setIdentity();
-  EXPECT_TRUE(publishedCorrection(q, c).isApprox(c.correction_W, 1e-12));
-}
-
 // --- Keyframe tracking in global mode: at 1 Hz and 1.5 m per frame previous-frame
 // tracking broke down on the paper survey, so global mode tracks against keyframes as local
 // mode does, and a map correction moves the keyframe with the frame.
@@ -522,6 +494,15 @@ OdometryParams localParams() {
 
 /// 8 % too much motion from 2 to 4 s on the way out: ~16 cm of drift by the turn.
 constexpr Drift kOutboundDrift{1.08, 2.0, 4.0};
+
+/// The drifted survey's parameters: vision only. The drift is a stereo baseline 8 % off, which
+/// the IMU contradicts: the inertial gate refuses the first drifted frames and the fault rule
+/// then follows vision, so with the IMU the drift depends on the gate's timing, not on what
+/// these tests are about (how a map correction travels with the keyframe chain).
+OdometryParams driftedParams(OdometryParams p) {
+  p.prediction = Prediction::kConstantVelocity;
+  return p;
+}
 
 TEST(GlobalKeyframe, WithoutOldGroundGlobalModeTracksExactlyAsLocalMode) {
   // GIVEN the first 5 s of the survey, none of it old enough to be a revisit
@@ -547,8 +528,8 @@ TEST(GlobalKeyframe, MapCorrectionsStayWithTheChainTrackedAgainstTheKeyframe) {
   // GIVEN the out-and-back survey with the motion overestimated by 8 % from 2 to 4 s on the way
   // out (a drift of ~16 cm), and the way back re-observing the first metre, mapped before it
   // WHEN local and (inline) global mode run over it
-  const SurveyRun l = runSurvey(0, localParams(), 120, kOutboundDrift, 0.2);
-  const SurveyRun g = runSurvey(0, globalParams(), 120, kOutboundDrift, 0.2);
+  const SurveyRun l = runSurvey(0, driftedParams(localParams()), 120, kOutboundDrift, 0.2);
+  const SurveyRun g = runSurvey(0, driftedParams(globalParams()), 120, kOutboundDrift, 0.2);
   const double local_final = (l.est.back() - l.truth.back()).norm();
   const double global_final = (g.est.back() - g.truth.back()).norm();
   RecordProperty("local_final_mm", static_cast<int>(local_final * 1000));
@@ -570,9 +551,9 @@ TEST(GlobalKeyframe, MapCorrectionsStayWithTheChainTrackedAgainstTheKeyframe) {
 TEST(GlobalKeyframe, DeferredCorrectionsOfFramesTrackedBeforeTheFirstLandsAreNotAppliedTwice) {
   // GIVEN the drifted survey with the global step deferred, its corrections landing 1-3
   // frames late, so the frames after a re-observation are refined before it reached the state
-  const SurveyRun l = runSurvey(0, localParams(), 120, kOutboundDrift, 0.2);
-  const SurveyRun inline_run = runSurvey(0, globalParams(), 120, kOutboundDrift, 0.2);
-  const SurveyRun deferred = runSurvey(3, globalParams(), 120, kOutboundDrift, 0.2);
+  const SurveyRun l = runSurvey(0, driftedParams(localParams()), 120, kOutboundDrift, 0.2);
+  const SurveyRun inline_run = runSurvey(0, driftedParams(globalParams()), 120, kOutboundDrift, 0.2);
+  const SurveyRun deferred = runSurvey(3, driftedParams(globalParams()), 120, kOutboundDrift, 0.2);
   // THEN each frame's correction is only what earlier ones have not yet delivered: the
   // deferred path takes the drift back as the inline one does, without overshooting it
   const double local_final = (l.est.back() - l.truth.back()).norm();

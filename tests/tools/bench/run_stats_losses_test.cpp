@@ -15,13 +15,12 @@
 namespace seavio::tools {
 namespace {
 
-/// Visual frames around three outages: 3 frames corrected by the agreed leak, 2 covariance-only,
-/// then 1 bare frame followed by a held one (one outage, counted by its first frame's kind).
+/// Visual frames around three outages: 3 frames on the inertial filter, 2 without an IMU, then
+/// 1 inertial frame followed by a held one (one outage, counted by its first frame's kind).
 std::vector<OdometryResult> lossyRun() {
   using C = CoastingCorrection;
-  const std::vector<C> lost = {C::kNone,       C::kAgreedLeak, C::kAgreedLeak, C::kAgreedLeak,     C::kNone,
-                               C::kCovarianceOnly, C::kCovarianceOnly, C::kNone, C::kNone, C::kBare,
-                               C::kHeld,       C::kNone};
+  const std::vector<C> lost = {C::kNone,  C::kInertial, C::kInertial, C::kInertial, C::kNone, C::kNoImu,
+                               C::kNoImu, C::kNone,     C::kNone,     C::kInertial, C::kHeld, C::kNone};
   std::vector<OdometryResult> out;
   for (std::size_t i = 0; i < lost.size(); ++i) {
     OdometryResult r;
@@ -40,12 +39,10 @@ TEST(RunStatsLosses, OutagesAndFramesAreCountedByTheirCoastingCorrection) {
   // THEN frames count per kind, outages once each by their first frame's kind
   EXPECT_EQ(n.imu_only_frames, 7);
   EXPECT_EQ(n.outages, 3);
-  EXPECT_EQ(n.frames(CoastingCorrection::kAgreedLeak), 3);
-  EXPECT_EQ(n.outagesOf(CoastingCorrection::kAgreedLeak), 1);
-  EXPECT_EQ(n.frames(CoastingCorrection::kCovarianceOnly), 2);
-  EXPECT_EQ(n.outagesOf(CoastingCorrection::kCovarianceOnly), 1);
-  EXPECT_EQ(n.frames(CoastingCorrection::kBare), 1);
-  EXPECT_EQ(n.outagesOf(CoastingCorrection::kBare), 1);
+  EXPECT_EQ(n.frames(CoastingCorrection::kInertial), 4);
+  EXPECT_EQ(n.outagesOf(CoastingCorrection::kInertial), 2);
+  EXPECT_EQ(n.frames(CoastingCorrection::kNoImu), 2);
+  EXPECT_EQ(n.outagesOf(CoastingCorrection::kNoImu), 1);
   EXPECT_EQ(n.frames(CoastingCorrection::kHeld), 1);
   EXPECT_EQ(n.outagesOf(CoastingCorrection::kHeld), 0);
   EXPECT_EQ(n.frames(CoastingCorrection::kNone), 0);
@@ -69,24 +66,22 @@ TEST(RunStatsLosses, TheTableAndTheJsonCarryTheCounts) {
   const std::string s = ss.str();
   std::filesystem::remove(json);
   // THEN the table names each kind that occurred, frames (outages)
-  EXPECT_NE(table.str().find("IMU-only frames 7 in 3 outages: bare 1 (1) agreed_leak 3 (1) covariance_only 2 (1) "
-                             "held 1 (0)"),
+  EXPECT_NE(table.str().find("IMU-only frames 7 in 3 outages: inertial 4 (2) no_imu 2 (1) held 1 (0)"),
             std::string::npos)
       << table.str();
   // AND the JSON has the losses object with every kind, and each frame's kind
-  EXPECT_NE(s.find("\"losses\": {\"imu_only_frames\": 7, \"outages\": 3, \"bare\": {\"frames\": 1, \"outages\": 1}, "
-                   "\"handover_fit\": {\"frames\": 0, \"outages\": 0}, \"agreed_leak\": {\"frames\": 3, \"outages\": 1}, "
-                   "\"covariance_only\": {\"frames\": 2, \"outages\": 1}, \"no_imu\": {\"frames\": 0, \"outages\": 0}, "
-                   "\"held\": {\"frames\": 1, \"outages\": 0}, \"refused\": {"),
+  EXPECT_NE(s.find("\"losses\": {\"imu_only_frames\": 7, \"outages\": 3, \"inertial\": {\"frames\": 4, \"outages\": 2}, "
+                   "\"no_imu\": {\"frames\": 2, \"outages\": 1}, \"held\": {\"frames\": 1, \"outages\": 0}, "
+                   "\"refused\": {"),
             std::string::npos)
       << s.substr(0, 800);
-  std::size_t agreed = 0, none = 0;
-  for (std::size_t p = s.find("\"coasting\": \"agreed_leak\""); p != std::string::npos;
-       p = s.find("\"coasting\": \"agreed_leak\"", p + 1))
-    ++agreed;
+  std::size_t inertial = 0, none = 0;
+  for (std::size_t p = s.find("\"coasting\": \"inertial\""); p != std::string::npos;
+       p = s.find("\"coasting\": \"inertial\"", p + 1))
+    ++inertial;
   for (std::size_t p = s.find("\"coasting\": \"none\""); p != std::string::npos; p = s.find("\"coasting\": \"none\"", p + 1))
     ++none;
-  EXPECT_EQ(agreed, 3u);
+  EXPECT_EQ(inertial, 4u);
   EXPECT_EQ(none, 5u);
 }
 

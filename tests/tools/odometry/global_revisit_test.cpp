@@ -1,5 +1,5 @@
 // The global variant bounds the drift when the survey comes back over earlier
-// ground. Two overlapping legs (lane spacing below the image footprint) on an untuned seed.
+// ground. Two overlapping legs (lane spacing below the image footprint) on a tuning seed.
 #include <filesystem>
 #include <iostream>
 #include <stdexcept>
@@ -50,7 +50,7 @@ ModeRun run(const drivers::Dataset& ds, odometry::Mode mode) {
 }
 
 TEST(GlobalMap, ReobservesTheFirstLegWhenComingBackOverIt) {
-  // GIVEN an untuned seed whose second leg runs back over the first
+  // GIVEN a tuning seed whose second leg runs back over the first
   const fs::path dir = fs::temp_directory_path() / "seavio_global_revisit_11";
   simulate::writeSequence(overlappingLegs(11), dir.string(), true);
   const drivers::Dataset ds = drivers::loadEuroc(dir.string());

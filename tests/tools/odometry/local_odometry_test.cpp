@@ -122,7 +122,7 @@ eval::TrajectoryMetrics runImuOnly(const drivers::Dataset& ds) {
   return eval::evaluateTrajectory(gt, est, eval::EvalParams{});
 }
 
-TEST(LocalOdometry, TracksAnUntunedPlainSurveyFarBetterThanDeadReckoning) {
+TEST(LocalOdometry, TracksAPlainSurveyFarBetterThanDeadReckoning) {
   // GIVEN a short plain survey with a seed never used for tuning
   const drivers::Dataset& ds = sequence(101, false);
   // WHEN the local variant runs over it
@@ -261,13 +261,11 @@ VisionSteps visionSteps(const drivers::Dataset& ds, const odometry::OdometryPara
 
 TEST(LocalOdometry, ReselectedInliersSharpenVisionsOwnHeadingAtOneHertz) {
   // GIVEN a short plain survey at 1 Hz (1.5 m between frames, as the paper's survey), and the
-  // odometry on vision's rotation alone (no gyro prior, no gyro bias learnt), so that each
-  // step's heading is what vision measured: what the gyro bias is learnt from at 1 Hz
+  // odometry on vision's rotation alone (no gyro prior), so that each step's heading is what
+  // vision measured: what the inertial filter learns the gyro bias from
   const drivers::Dataset& ds = oneHertzSequence();
   odometry::OdometryParams params;
   params.use_rotation_prior = false;
-  params.gyro_bias_gain = 0;
-  params.gyro_bias_gravity_window_s = 0;
   ASSERT_TRUE(params.patch_reselect);  // the default this test stands behind
   // WHEN each step's rotation is compared with the true one, about the body's z axis
   const auto run = [&](bool reselect) {
@@ -307,12 +305,10 @@ const drivers::Dataset& oneHertzSurvey(const std::string& name, uint32_t seed, b
   return sequence(name, c);
 }
 
-/// Vision's own rotation: no gyro prior, no gyro-bias learning.
+/// Vision's own rotation: no gyro prior.
 odometry::OdometryParams visionRotationOnly() {
   odometry::OdometryParams params;
   params.use_rotation_prior = false;
-  params.gyro_bias_gain = 0;
-  params.gyro_bias_gravity_window_s = 0;
   return params;
 }
 
@@ -353,7 +349,7 @@ TEST(LocalOdometry, GuidedTracksGiveSnowItsLostPointsBackAtOneHertz) {
 }
 
 TEST(LocalOdometry, TheInlierTargetBuysTheOneHertzStripMoreInliersAndASharperHeading) {
-  // GIVEN the 1 Hz survey on a plain floor (an untuned seed), where only a strip of each image
+  // GIVEN the 1 Hz survey on a plain floor (a tuning seed), where only a strip of each image
   // overlaps the previous one, and vision's rotation alone (as above)
   const drivers::Dataset& ds = oneHertzSurvey("1hz_plain_139", 139, false, 40);
   odometry::OdometryParams params = visionRotationOnly();
@@ -386,7 +382,7 @@ TEST(LocalOdometry, GyroPriorBeatsVisionOnlyRotation) {
   // the 1 Hz survey, whose wide steps are where vision's rotation is weakest, step by step:
   // how far a 60-frame survey's position wanders is one draw of a random walk, and with the
   // sharper images of the dots-only snow filter vision alone sometimes ends the closer
-  // (8 untuned seeds, 131-167: mean error medians 0.018 m with the prior against
+  // (8 tuning seeds, 131-167: mean error medians 0.018 m with the prior against
   // 0.038 m without, 6 of 8 closer; here 0.042 against 0.037 m), while every seed's step
   // errors halve with the prior (tilt ratio 0.31-0.52, translation 0.44-0.56).
   const drivers::Dataset& ds = oneHertzSequence();
@@ -415,12 +411,7 @@ TEST(LocalOdometry, GyroPriorBeatsVisionOnlyRotation) {
 TEST(LocalOdometry, KeyframeTrackingIsNoWorseThanFrameToFrame) {
   // GIVEN a short plain survey at 10 Hz, where a keyframe stays in view for about ten frames
   const drivers::Dataset& ds = sequence(101, false);
-  // Both with the gyro bias learnt from all three axes of the visual residual, as when this
-  // comparison was set up: over 7 s the gravity tilt rates (2 s windows, the first after 6 s)
-  // do not act yet, and the heading-only visual update leaves both at the still start's tilt bias.
   odometry::OdometryParams keyframe;
-  keyframe.gyro_bias_vision_tilt_weight = 1.0;
-  keyframe.gyro_bias_gravity_window_s = 0.0;
   odometry::OdometryParams frame_to_frame = keyframe;
   frame_to_frame.keyframe_tracking = false;
   // WHEN it is tracked against keyframes, and frame to frame

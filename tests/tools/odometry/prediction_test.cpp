@@ -27,7 +27,7 @@ std::string scratchDir(const std::string& tag) {
 }
 
 TEST(ImuPruning, FindsMoreCorrectMatchesThanWholeImageSearch) {
-  // GIVEN frames of an untuned seed cruising at 1 m/s, 10 Hz, and the IMU's prediction of each
+  // GIVEN frames of a tuning seed cruising at 1 m/s, 10 Hz, and the IMU's prediction of each
   // pair's motion (from the true start state with the odometry's post-fix uncertainty)
   const auto scene = testing_support::renderScene(testing_support::cruiseConfig(37, 24), scratchDir("37"));
   for (const int gap : {1, 3}) {
@@ -111,7 +111,7 @@ TurnRun runTurns(const drivers::Dataset& ds, odometry::Prediction prediction) {
 }
 
 TEST(TurnPrediction, ImuPredictionTracksPivotTurnsFarBetterThanConstantVelocity) {
-  // GIVEN an untuned seed with two pivot turns at the paper's rate of turn
+  // GIVEN a tuning seed with two pivot turns at the paper's rate of turn
   const std::string dir = scratchDir("23");
   simulate::writeSequence(pivotTurns(23), dir, true);
   const drivers::Dataset ds = drivers::loadEuroc(dir);
@@ -145,7 +145,7 @@ TEST(TurnPrediction, ImuPredictionTracksPivotTurnsFarBetterThanConstantVelocity)
 }
 
 TEST(TurnPrediction, SteeredUprightSurfKeepsMoreInliersThroughPivotTurns) {
-  // GIVEN an untuned seed with two pivot turns at the paper's rate of turn, ~29 deg per frame
+  // GIVEN a tuning seed with two pivot turns at the paper's rate of turn, ~29 deg per frame
   const std::string dir = scratchDir("43");
   simulate::writeSequence(pivotTurns(43), dir, true);
   const drivers::Dataset ds = drivers::loadEuroc(dir);

@@ -62,7 +62,7 @@ class Refusals : public ::testing::Test {
     int refused = 0;
     for (const OdometryResult& r : run.results) {
       stats.add(r);
-      daemon::countImuOnly(health, r);
+      daemon::countPose(health, r);
       const seavio_lcm::pose_t m = drivers::toPoseMsg(r, r.t_ns);
       if (r.source != PoseSource::kImuOnly) {
         EXPECT_EQ(r.refusal.check, Refusal::kNone) << "frame " << r.seq;
