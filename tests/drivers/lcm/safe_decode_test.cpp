@@ -1,15 +1,18 @@
 // Hostile length fields in LCM messages and logs (inputs found by fuzz/lcm_*_fuzz).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <climits>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <string>
 #include <vector>
 
 #include "drivers/lcm/lcm_log.hpp"
 #include "drivers/lcm/safe_decode.hpp"
+#include "seavio_lcm/calibration_t.hpp"
 #include "seavio_lcm/imu_t.hpp"
 #include "seavio_lcm/pose_t.hpp"
 #include "seavio_lcm/status_t.hpp"
@@ -121,6 +124,53 @@ TEST(SafeDecode, MinimumStringLengthInStatusIsAFailure) {
   putBigEndianI32(st, seavio::drivers::detail::kStatusStageCountAt + 2, INT32_MIN);
   seavio_lcm::status_t out{};
   EXPECT_FALSE(decodeLcm(out, st.data(), st.size()));
+}
+
+/// The position of the int32 length in front of the encoded `text` in `buf`: found by the text,
+/// so the test does not share the decoder's offsets.
+std::size_t lengthOf(const std::vector<uint8_t>& buf, const std::string& text) {
+  for (std::size_t i = 4; i + text.size() <= buf.size(); ++i)
+    if (std::equal(text.begin(), text.end(), buf.begin() + static_cast<std::ptrdiff_t>(i))) return i - 4;
+  ADD_FAILURE() << "no '" << text << "' in the message";
+  return 0;
+}
+
+// GIVEN a status message with a fault and a degrade rung named, and a calibration message,
+// WHEN the length of any of their later strings is INT32_MIN, zero or past the payload, THEN
+// decoding fails (lcm-gen computes length - 1 in int: INT32_MIN overflowed, and wrapped to a
+// 2 GiB copy past the buffer), and the unaltered messages decode.
+TEST(SafeDecode, EveryStringLengthOfStatusAndCalibrationIsChecked) {
+  seavio_lcm::status_t status{};
+  status.num_stages = 2;
+  status.stage_names = {"features", "tensor"};
+  status.p50_ms = {1, 2};
+  status.p99_ms = {3, 4};
+  status.deadline_misses = {5, 6};
+  status.fault = "estimator: boom";
+  status.degrade = "fewer features";
+  const auto st = encode(status);
+  seavio_lcm::status_t out{};
+  ASSERT_TRUE(decodeLcm(out, st.data(), st.size()));
+  EXPECT_EQ(out.degrade, "fewer features");
+  seavio_lcm::calibration_t calib{};
+  calib.distortion_model[0] = "radial-tangential";
+  calib.distortion_model[1] = "equidistant";
+  const auto cb = encode(calib);
+  seavio_lcm::calibration_t calib_out{};
+  ASSERT_TRUE(decodeLcm(calib_out, cb.data(), cb.size()));
+  EXPECT_EQ(calib_out.distortion_model[1], "equidistant");
+  for (const int32_t bad : {INT32_MIN, 0, INT32_MAX}) {
+    for (const char* text : {"estimator: boom", "fewer features"}) {
+      auto b = st;
+      putBigEndianI32(b, lengthOf(st, text), bad);
+      EXPECT_FALSE(decodeLcm(out, b.data(), b.size())) << text << " length " << bad;
+    }
+    for (const char* text : {"radial-tangential", "equidistant"}) {
+      auto b = cb;
+      putBigEndianI32(b, lengthOf(cb, text), bad);
+      EXPECT_FALSE(decodeLcm(calib_out, b.data(), b.size())) << text << " length " << bad;
+    }
+  }
 }
 
 TEST(SafeDecode, CommittedFuzzRegressionsDoNotThrow) {
