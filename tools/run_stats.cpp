@@ -196,6 +196,18 @@ void RunStats::writeJson(const std::string& path) const {
       os << fmt::format(", \"gyro_bias_rad_s\": [{:.4e}, {:.4e}, {:.4e}], \"accel_bias_m_s2\": [{:.5f}, {:.5f}, {:.5f}]",
                         g.x(), g.y(), g.z(), a.x(), a.y(), a.z());
     }
+    // What the estimate claims, for consistency checks against a simulator's truth.
+    const Eigen::Vector3d& sg = f.gyro_bias_sigma_rad_s;
+    const Eigen::Vector3d& sa = f.accel_bias_sigma_m_s2;
+    os << fmt::format(", \"gyro_bias_sigma_rad_s\": [{:.4e}, {:.4e}, {:.4e}], "
+                      "\"accel_bias_sigma_m_s2\": [{:.4e}, {:.4e}, {:.4e}]",
+                      sg.x(), sg.y(), sg.z(), sa.x(), sa.y(), sa.z());
+    if (!f.increment_covariance.isZero(0.0)) {
+      os << ", \"increment_cov\": [";
+      for (int r = 0, k = 0; r < 6; ++r)
+        for (int c = r; c < 6; ++c, ++k) os << (k ? ", " : "") << fmt::format("{:.6e}", f.increment_covariance(r, c));
+      os << "]";
+    }
     os << "}";
   }
   os << "\n  ]\n}\n";

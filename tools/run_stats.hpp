@@ -59,7 +59,10 @@ class RunStats {
   /// Median and p99 per stage, with the paper's figures for `variant` beside ours.
   void printTable(std::ostream& os, PaperVariant variant = PaperVariant::kLocal) const;
   /// One JSON object per frame plus a summary and the losses ("losses": IMU-only frames and
-  /// outages by coasting correction; per frame "coasting", coastingName()).
+  /// outages by coasting correction; per frame "coasting", coastingName()). Per frame also the
+  /// filter's bias sigmas ("gyro_bias_sigma_rad_s", "accel_bias_sigma_m_s2"; zero without IMU)
+  /// and, on a visual increment only, "increment_cov": OdometryResult::increment_covariance's
+  /// upper triangle row by row (21 values; rotation [rad^2] then translation [m^2]).
   void writeJson(const std::string& path) const;
   /// Percentile (0..100) of a per-frame quantity.
   static double percentile(std::vector<double> v, double p);

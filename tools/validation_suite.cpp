@@ -10,6 +10,7 @@
 #include <spdlog/fmt/fmt.h>
 #include <spdlog/spdlog.h>
 
+#include "core/eval/consistency.hpp"
 #include "core/eval/trajectory_metrics.hpp"
 #include "drivers/config/odometry_config.hpp"
 #include "drivers/dataset/dataset.hpp"
@@ -96,8 +97,39 @@ RunFigures figuresOf(const drivers::Dataset& ds, const SequenceRun& run) {
   f.incomplete = m.incomplete;
   for (std::size_t i = 0; i < m.error_m.size(); ++i)
     if (m.distance_along_m[i] >= 1.0) f.error_pct.push_back(100.0 * m.error_m[i] / m.distance_along_m[i]);
+  // Both the truth and the published pose are the body (IMU) frame's; increments need no
+  // world alignment.
+  std::vector<eval::TruthSample> truth;
+  for (const auto& g : ds.ground_truth) truth.push_back({g.t_ns, g.T_W_B, g.gyro_bias_rad_s, g.accel_bias_m_s2});
+  std::vector<eval::ConsistencyFrame> frames;
+  for (std::size_t i = 0; i < run.results.size(); ++i) {
+    const OdometryResult& r = run.results[i];
+    eval::ConsistencyFrame c;
+    c.t_ns = r.t_ns;
+    c.T_W_B = r.T_W_B;
+    if (i < run.gyro_bias_rad_s.size() && i < run.accel_bias_m_s2.size()) {
+      c.gyro_bias_rad_s = run.gyro_bias_rad_s[i];
+      c.accel_bias_m_s2 = run.accel_bias_m_s2[i];
+      c.gyro_bias_sigma_rad_s = r.gyro_bias_sigma_rad_s;
+      c.accel_bias_sigma_m_s2 = r.accel_bias_sigma_m_s2;
+    }
+    c.increment_covariance = r.increment_covariance;
+    frames.push_back(c);
+  }
+  const eval::ConsistencyFigures c = eval::evaluateConsistency(truth, frames);
+  f.bias_known = c.bias_known;
+  f.bias_within_3sigma_fraction = c.bias_within_fraction;
+  f.nees_frames = c.nees_frames;
+  f.nees_in_band_fraction = c.nees_in_band_fraction;
+  f.nees_median = c.nees_median;
+  f.nees_rotation_median = c.nees_rotation_median;
+  f.nees_translation_median = c.nees_translation_median;
   return f;
 }
+
+/// The run-level rules of RunFigures' consistency figures.
+constexpr double kBiasPassFraction = 0.95;
+constexpr double kNeesPassFraction = 0.90;
 
 /// One run: the odometry over the whole sequence in `mode`, with or without the IMU.
 RunFigures runOne(const drivers::Dataset& ds, const odometry::OdometryParams& base, const std::string& mode,
@@ -118,6 +150,13 @@ double median(std::vector<double> v) {
 
 std::string ratio(double with_imu, double without) {
   return without > 0 ? fmt::format("{:.2f}", with_imu / without) : std::string("-");
+}
+
+std::string biasColumn(const RunFigures& f) {
+  return f.bias_known ? fmt::format("{:.2f}", f.bias_within_3sigma_fraction) : std::string("-");
+}
+std::string neesColumn(const RunFigures& f, double value) {
+  return f.nees_frames > 0 ? fmt::format("{:.2f}", value) : std::string("-");
 }
 
 }  // namespace
@@ -229,19 +268,26 @@ std::vector<ValidationRow> runValidation(const ValidationOptions& o) {
 }
 
 void printValidationTable(std::ostream& os, const std::vector<ValidationRow>& rows) {
-  os << fmt::format("{:<44}{:<7}{:>6}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}{:>7}{:>7} {}\n", "sequence", "mode", "frames",
-                    "dist[m]", "mean%", "final%", "tilt", "tiltmx", "head", "headmx", "coast", "cv-co", "ratio mean/final");
+  os << fmt::format("{:<44}{:<7}{:>6}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}{:>7}{:>7}{:>6}{:>6}{:>8} {}\n", "sequence", "mode",
+                    "frames", "dist[m]", "mean%", "final%", "tilt", "tiltmx", "head", "headmx", "coast", "cv-co", "b3s",
+                    "nees", "neesmd", "ratio mean/final");
   for (const auto& r : rows) {
     const RunFigures& f = r.imu;
-    os << fmt::format("{:<44}{:<7}{:>6}{:>8.1f}{:>8.3f}{:>8.3f}{:>8.2f}{:>8.2f}{:>8.2f}{:>8.2f}{:>7}{:>7} {}/{}{}\n",
+    os << fmt::format("{:<44}{:<7}{:>6}{:>8.1f}{:>8.3f}{:>8.3f}{:>8.2f}{:>8.2f}{:>8.2f}{:>8.2f}{:>7}{:>7}{:>6}{:>6}{:>8} {}/{}{}\n",
                       r.sequence.name, r.mode, f.frames, f.distance_m, f.mean_error_pct, f.final_error_pct,
                       f.mean_tilt_error_deg, f.max_tilt_error_deg, f.mean_heading_error_deg, f.max_heading_error_deg,
-                      f.imu_only_frames, r.no_imu.imu_only_frames, validation_suite::ratio(f.mean_error_pct, r.no_imu.mean_error_pct),
+                      f.imu_only_frames, r.no_imu.imu_only_frames, validation_suite::biasColumn(f),
+                      validation_suite::neesColumn(f, f.nees_in_band_fraction),
+                      validation_suite::neesColumn(f, f.nees_median),
+                      validation_suite::ratio(f.mean_error_pct, r.no_imu.mean_error_pct),
                       validation_suite::ratio(f.final_error_pct, r.no_imu.final_error_pct),
                       f.incomplete || r.no_imu.incomplete ? "  INCOMPLETE" : "");
   }
   os << "(tilt, head: mean and max tilt / heading error [deg]; coast: frames coasting on the IMU; cv-co: the same\n"
-        " with prediction: constant_velocity (vision lost, it coasts on constant velocity); ratio: mean and final % with the IMU / without)\n";
+        " with prediction: constant_velocity (vision lost, it coasts on constant velocity); b3s: fraction of frames from\n"
+        " 30 s on with all six biases within 3 sigma of the truth (-: shorter, or biases unknown); nees: fraction of\n"
+        " visual increments whose 6-dof NEES is in the 95 % chi-square band [1.237, 14.449]; neesmd: its median\n"
+        " (5.35 if the claimed covariance fits); ratio: mean and final % with the IMU / without)\n";
   for (const char* mode : {"local", "global"}) {
     std::vector<double> mean, fin, mean_n, fin_n;
     for (const auto& r : rows)
@@ -257,6 +303,25 @@ void printValidationTable(std::ostream& os, const std::vector<ValidationRow>& ro
                       mode, validation_suite::median(mean), validation_suite::median(fin), *std::max_element(mean.begin(), mean.end()),
                       *std::max_element(fin.begin(), fin.end()), validation_suite::median(mean_n), validation_suite::median(fin_n),
                       *std::max_element(mean_n.begin(), mean_n.end()), *std::max_element(fin_n.begin(), fin_n.end()));
+    int bias_runs = 0, bias_pass = 0, nees_runs = 0, nees_pass = 0;
+    std::vector<double> nees_median;
+    for (const auto& r : rows) {
+      if (r.mode != mode) continue;
+      if (r.imu.bias_known) {
+        ++bias_runs;
+        bias_pass += r.imu.bias_within_3sigma_fraction >= validation_suite::kBiasPassFraction;
+      }
+      if (r.imu.nees_frames > 0) {
+        ++nees_runs;
+        nees_pass += r.imu.nees_in_band_fraction >= validation_suite::kNeesPassFraction;
+        nees_median.push_back(r.imu.nees_median);
+      }
+    }
+    os << fmt::format("{:<7} consistency: bias b3s >= {:.2f} in {} of {} runs with 30 s and known biases; NEES in band "
+                      "on >= {:.0f} % of increments in {} of {} runs, median NEES (run medians) {:.2f}\n",
+                      mode, validation_suite::kBiasPassFraction, bias_pass, bias_runs,
+                      100 * validation_suite::kNeesPassFraction, nees_pass, nees_runs,
+                      validation_suite::median(nees_median));
   }
 }
 
@@ -268,10 +333,15 @@ void writeValidationJson(const std::string& path, const std::vector<ValidationRo
     std::string s = fmt::format(
         "{{\"frames\": {}, \"imu_only_frames\": {}, \"distance_m\": {}, \"mean_error_pct\": {}, "
         "\"final_error_pct\": {}, \"mean_tilt_error_deg\": {}, \"max_tilt_error_deg\": {}, "
-        "\"mean_heading_error_deg\": {}, \"max_heading_error_deg\": {}, \"incomplete\": {}, \"error_pct\": [",
+        "\"mean_heading_error_deg\": {}, \"max_heading_error_deg\": {}, \"incomplete\": {}, "
+        "\"bias_within_3sigma_fraction\": {}, \"nees_frames\": {}, \"nees_in_band_fraction\": {}, "
+        "\"nees_median\": {}, \"nees_rotation_median\": {}, \"nees_translation_median\": {}, \"error_pct\": [",
         f.frames, f.imu_only_frames, num(f.distance_m), num(f.mean_error_pct), num(f.final_error_pct),
         num(f.mean_tilt_error_deg), num(f.max_tilt_error_deg), num(f.mean_heading_error_deg),
-        num(f.max_heading_error_deg), f.incomplete ? "true" : "false");
+        num(f.max_heading_error_deg), f.incomplete ? "true" : "false",
+        f.bias_known ? num(f.bias_within_3sigma_fraction) : std::string("null"), f.nees_frames,
+        num(f.nees_in_band_fraction), num(f.nees_median), num(f.nees_rotation_median),
+        num(f.nees_translation_median));
     for (std::size_t i = 0; i < f.error_pct.size(); ++i) s += (i ? ", " : "") + num(f.error_pct[i]);
     return s + "]}";
   };

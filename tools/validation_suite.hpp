@@ -42,6 +42,19 @@ struct RunFigures {
   double mean_tilt_error_deg = 0, max_tilt_error_deg = 0;
   double mean_heading_error_deg = 0, max_heading_error_deg = 0;
   bool incomplete = true;
+  /// Whether the claimed uncertainty fits (core/eval/consistency.hpp). b3s: the fraction of
+  /// frames from 30 s after the first one on which all six filter biases lie within 3 of its
+  /// sigmas of the truth's; unknown (bias_known false) for a shorter run, a truth without
+  /// biases (a real recording) or a run without the IMU. A run passes the bias check when
+  /// b3s >= 0.95.
+  bool bias_known = false;
+  double bias_within_3sigma_fraction = 0;
+  /// The NEES of each visual frame-to-frame increment: the fraction within the two-sided 95 %
+  /// chi-square band of 6 dof [1.237, 14.449], and the medians (6 dof, and the 3-dof rotation
+  /// and translation marginals). A run passes the NEES check when nees_in_band_fraction >= 0.90.
+  int nees_frames = 0;
+  double nees_in_band_fraction = 0;
+  double nees_median = 0, nees_rotation_median = 0, nees_translation_median = 0;
   std::vector<double> error_pct;  ///< per associated frame: error / distance so far [%] (from 1 m on)
 };
 
@@ -66,8 +79,9 @@ std::vector<std::string> realSequenceDirs(const std::string& data_dir);
 std::vector<ValidationRow> runValidation(const ValidationOptions& o);
 
 /// The table: per row mean and final % of distance, mean/max tilt and heading error, frames
-/// coasting on the IMU, and the ratio of mean and final % to the run without the IMU; then
-/// medians and worst cases per mode.
+/// coasting on the IMU, the consistency figures (b3s, NEES in band and its median), and the
+/// ratio of mean and final % to the run without the IMU; then medians and worst cases per mode,
+/// and per mode how many runs pass the bias and NEES checks (RunFigures).
 void printValidationTable(std::ostream& os, const std::vector<ValidationRow>& rows);
 /// Every row's figures as JSON. Throws std::runtime_error naming the path if it cannot write.
 void writeValidationJson(const std::string& path, const std::vector<ValidationRow>& rows);

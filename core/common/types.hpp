@@ -101,6 +101,20 @@ struct OdometryResult {
   CoastingCorrection coasting = CoastingCorrection::kNone;
   /// kImuOnly frames: the check that refused the visual estimate and by how much.
   RefusalFigures refusal;
+  /// The inertial filter's 1-sigma of its gyro [rad/s] and accelerometer [m/s^2] bias per body
+  /// axis after this frame (the square roots of its covariance's diagonal), so a consistency
+  /// check can hold the biases against the truth; zero when the frame had no IMU.
+  Eigen::Vector3d gyro_bias_sigma_rad_s = Eigen::Vector3d::Zero();
+  Eigen::Vector3d accel_bias_sigma_m_s2 = Eigen::Vector3d::Zero();
+  /// The covariance the estimate claims for the published pose's increment since the previous
+  /// frame, T_W_B(prev)^-1 T_W_B: the visual motion's (the prior-refined one the pose is
+  /// chained from), in the filter's RelativeMotion convention: rotation as a right perturbation
+  /// in the current body [rad], translation in the previous body [m]. Tracked against a keyframe
+  /// older than the previous frame, it is the whole keyframe motion's covariance (the part the
+  /// two frames share is not taken out). Zero when the increment is not a visual one: the first
+  /// frame, a coasted frame, a frame tracked against a keyframe across a coasted one, and a frame
+  /// the global map moved.
+  Eigen::Matrix<double, 6, 6> increment_covariance = Eigen::Matrix<double, 6, 6>::Zero();
   Quality quality;
   StageTimes times;
 };

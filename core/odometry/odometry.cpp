@@ -31,6 +31,19 @@ Eigen::Isometry3d bodyMotion(const imu::RelativeMotion& m) {
   return T;
 }
 
+/// The covariance of a camera motion against the reference (left perturbation in the reference
+/// camera), carried to the previous frame by `T_prev_ref` (rig frames) and expressed as
+/// RelativeMotion's body-frame covariance of the motion `T_prev_curr` (previous <- current rig).
+Matrix6d bodyCovarianceSincePrevious(const Matrix6d& covariance_ref, const Eigen::Isometry3d& T_prev_ref,
+                                     const Eigen::Isometry3d& T_prev_curr, const Eigen::Isometry3d& T_B_R0) {
+  // Left perturbation in the reference camera -> in the previous camera: the adjoint of T_prev_ref.
+  Matrix6d Ad = Matrix6d::Zero();
+  Ad.topLeftCorner<3, 3>() = T_prev_ref.rotation();
+  Ad.bottomRightCorner<3, 3>() = T_prev_ref.rotation();
+  Ad.bottomLeftCorner<3, 3>() = se3::skew(T_prev_ref.translation()) * T_prev_ref.rotation();
+  return imu::cameraToBodyMotionCovariance(Ad * covariance_ref * Ad.transpose(), T_prev_curr, T_B_R0);
+}
+
 /// A vision-only motion against the reference (keyframe or previous frame), as the inertial
 /// estimator's measurement between the previous frame's body pose and the current one.
 /// `T_prev_ref` (rig frames) carries it from the reference to the previous frame; its error is
@@ -38,17 +51,12 @@ Eigen::Isometry3d bodyMotion(const imu::RelativeMotion& m) {
 /// takes each increment with the whole covariance, errs on the cautious side.
 imu::RelativeMotion visionMotionSincePrevious(const MotionRefinementResult& vision, const Eigen::Isometry3d& T_prev_ref,
                                               const Eigen::Isometry3d& T_B_R0) {
-  // Left perturbation in the reference camera -> in the previous camera: the adjoint of T_prev_ref.
-  Matrix6d Ad = Matrix6d::Zero();
-  Ad.topLeftCorner<3, 3>() = T_prev_ref.rotation();
-  Ad.bottomRightCorner<3, 3>() = T_prev_ref.rotation();
-  Ad.bottomLeftCorner<3, 3>() = se3::skew(T_prev_ref.translation()) * T_prev_ref.rotation();
   const Eigen::Isometry3d T_prev_curr = T_prev_ref * vision.T_prev_curr;
   imu::RelativeMotion z;
   const Eigen::Isometry3d T_B = T_B_R0 * T_prev_curr * T_B_R0.inverse();
   z.R_prev_curr = T_B.rotation();
   z.p_prev_curr = T_B.translation();
-  z.covariance = imu::cameraToBodyMotionCovariance(Ad * vision.covariance * Ad.transpose(), T_prev_curr, T_B_R0);
+  z.covariance = bodyCovarianceSincePrevious(vision.covariance, T_prev_ref, T_prev_curr, T_B_R0);
   return z;
 }
 
@@ -191,6 +199,7 @@ void Odometry::applyGlobalCorrection(const GlobalCorrection& c) {
   const Eigen::Isometry3d delta = c.increment_W ? *c.increment_W : c.correction_W;
   if (!initialised_ || !finitePose(delta)) return;
   last_applied_correction_ = c.frame_id;
+  moved_since_published_ = true;
   // The correction is a delta in W measured at an older frame; everything tracked since was
   // chained onto that frame's pose, so the same delta moves it too. A correction is not
   // motion: the velocity is only turned with the frame.
@@ -588,8 +597,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   // chi-square gate; a refused motion is not used for the pose either (the frame coasts,
   // flagged). Against a keyframe older than a coasted previous frame the motion would carry
   // that frame's prediction into the measurement: the filter then only moves its clone on.
+  const bool reference_measured = !previous_coasted_ || !on_keyframe || keyframe_->t_ns == prev.t_ns;
   if (have_imu) {
-    const bool reference_measured = !previous_coasted_ || !on_keyframe || keyframe_->t_ns == prev.t_ns;
     if (vision_ok && vision_alone && reference_measured) {
       const imu::RelativeMotion z = visionMotionSincePrevious(*vision_alone, prev.T_W_R0.inverse() * T_W_ref, T_B_R0);
       double d2 = 0;
@@ -665,6 +674,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     const NavState f = filter_.state();
     state_.gyro_bias_rad_s = f.gyro_bias_rad_s;
     state_.accel_bias_m_s2 = f.accel_bias_m_s2;
+    r.gyro_bias_sigma_rad_s = filter_.covariance().block<3, 3>(imu::kEsBg, imu::kEsBg).diagonal().cwiseSqrt();
+    r.accel_bias_sigma_m_s2 = filter_.covariance().block<3, 3>(imu::kEsBa, imu::kEsBa).diagonal().cwiseSqrt();
     // A visual fix anchors the filter's position; coasting frames keep what accrues since.
     filter_.clonePose(r.source == PoseSource::kVision);
     if (r.source == PoseSource::kVision) fix_filter_covariance_ = filter_.poseCovarianceW();
@@ -680,6 +691,14 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
     r.refusal = {Refusal::kNonFinite, 0, 0};
     if (filter_.started()) filter_stale_ = true;  // restarts from the held state
   }
+  // What the published increment claims: the motion it was chained from is the visual one
+  // (rel_cov, also when ICP placed the frame) only on a visual frame whose reference reaches the
+  // previous frame through measured poses, and that no map correction moved since either was
+  // published.
+  if (r.source == PoseSource::kVision && reference_measured && !map_delta_W && !moved_since_published_)
+    r.increment_covariance = bodyCovarianceSincePrevious(rel_cov, prev.T_W_R0.inverse() * T_W_ref,
+                                                         prev.T_W_R0.inverse() * T_W_R0, T_B_R0);
+  moved_since_published_ = false;
   previous_coasted_ = r.source != PoseSource::kVision;
   last_motion_ = prev.T_W_R0.inverse() * T_W_R0;
   last_dt_s_ = dt_s;

@@ -262,6 +262,9 @@ class Odometry {
   bool filter_stale_ = false;
   /// The last frame coasted: its chain pose is the filter's prediction, not a measurement.
   bool previous_coasted_ = false;
+  /// A deferred map correction moved the previous frame after it was published: the next
+  /// published increment carries the correction, not only the visual motion.
+  bool moved_since_published_ = false;
   /// At the last visual fix: the chain's pose covariance and the filter's own; coasting adds
   /// what the filter's grew by since (its velocity, tilt and bias errors, correlated).
   Eigen::Matrix<double, 6, 6> fix_pose_covariance_ = Eigen::Matrix<double, 6, 6>::Zero();

@@ -5,6 +5,8 @@
 #include <random>
 #include <vector>
 
+#include <Eigen/Cholesky>
+
 #include <gtest/gtest.h>
 
 #include "core/imu/imu_integrator.hpp"
@@ -23,6 +25,9 @@ struct BiasRun {
   Eigen::Vector3d final_bias_sigma = Eigen::Vector3d::Zero();  ///< the filter's own [rad/s]
   double final_attitude_error_rad = 0;
   int vision_frames = 0;
+  Eigen::Vector3d result_bias_sigma = Eigen::Vector3d::Zero();  ///< the last result's [rad/s]
+  int claimed_increments = 0;  ///< results with a positive-definite increment covariance
+  bool first_claims_increment = true;
 };
 
 /// 12 s over a synthetic floor; the gyro reads `bias` from t = 0 on (after the still second
@@ -56,6 +61,10 @@ BiasRun fly(const Eigen::Vector3d& bias) {
     EXPECT_GT(ff.stereo.points.size(), 100u);
     const OdometryResult r = odo.track(std::move(ff), imu);
     out.vision_frames += r.source == PoseSource::kVision;
+    if (f == 0) out.first_claims_increment = !r.increment_covariance.isZero(0.0);
+    out.claimed_increments += Eigen::LLT<Eigen::Matrix<double, 6, 6>>(r.increment_covariance).info() == Eigen::Success &&
+                              !r.increment_covariance.isZero(0.0);
+    out.result_bias_sigma = r.gyro_bias_sigma_rad_s;
     R_last = r.T_W_B.linear();
   }
   out.final_bias_error = odo.state().gyro_bias_rad_s - bias;
@@ -79,6 +88,11 @@ TEST(GyroBiasLearning, AnUnseenBiasIsLearntWithinTheFiltersThreeSigma) {
   EXPECT_LT(run.final_bias_error.norm(), 0.3 * bias.norm());
   for (int i = 0; i < 3; ++i) EXPECT_LT(std::abs(run.final_bias_error[i]), 3 * run.final_bias_sigma[i]) << i;
   EXPECT_LT(run.final_attitude_error_rad, 0.35 * bias.norm() * 12.0);
+  // AND each result carries the filter's bias sigma and, from the second frame on, the
+  // covariance its visual increment claims (none for the first frame: there is no increment)
+  EXPECT_TRUE(run.result_bias_sigma.isApprox(run.final_bias_sigma, 1e-12)) << run.result_bias_sigma.transpose();
+  EXPECT_EQ(run.claimed_increments, 119);
+  EXPECT_FALSE(run.first_claims_increment);
 }
 
 }  // namespace

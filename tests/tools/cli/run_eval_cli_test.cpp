@@ -140,6 +140,25 @@ TEST_F(Cli, BenchValidateReportsEveryRunOfTheMatrix) {
   EXPECT_EQ(no_imu, 10u);
   EXPECT_EQ(json.find("\"frames\": 0,"), std::string::npos) << "a run processed no frame";
   EXPECT_NE(table.find("median mean"), std::string::npos) << table;
+  EXPECT_NE(table.find("consistency: bias"), std::string::npos) << table;
+  // Consistency: every run has a NEES fraction in [0, 1], some run judged increments, and no
+  // 8-frame run lasted the 30 s the bias check needs.
+  std::size_t fractions = 0, judged = 0;
+  const std::string key = "\"nees_in_band_fraction\": ";
+  for (std::size_t at = json.find(key); at != std::string::npos; at = json.find(key, at + 1), ++fractions) {
+    const double v = std::stod(json.substr(at + key.size(), 20));
+    EXPECT_GE(v, 0.0);
+    EXPECT_LE(v, 1.0);
+  }
+  const std::string frames_key = "\"nees_frames\": ";
+  for (std::size_t at = json.find(frames_key); at != std::string::npos; at = json.find(frames_key, at + 1))
+    judged += std::stoi(json.substr(at + frames_key.size(), 10)) > 0;
+  EXPECT_EQ(fractions, 20u);
+  EXPECT_GT(judged, 0u);
+  std::size_t unknown_bias = 0;
+  const std::string bias_key = "\"bias_within_3sigma_fraction\": null";
+  for (std::size_t at = json.find(bias_key); at != std::string::npos; at = json.find(bias_key, at + 1)) ++unknown_bias;
+  EXPECT_EQ(unknown_bias, 20u);
   EXPECT_GT(fs::file_size(out / "validate.png"), 1000u);
 }
 
