@@ -21,6 +21,7 @@
 #include "core/common/stage_timer.hpp"
 #include "core/odometry/odometry.hpp"
 #include "daemon/frame_processor.hpp"
+#include "daemon/pool_parallel_for.hpp"
 #include "daemon/refusal_log.hpp"
 #include "daemon/worker_pool.hpp"
 
@@ -62,15 +63,24 @@ class OdometryProcessor : public FrameProcessor {
 
   /// Takes `odo` as it is (its clock included).
   explicit OdometryProcessor(odometry::Odometry odo, std::size_t feature_threads = 2) : odo_(std::move(odo)) {
-    // A queue of one: the processor never has more than one job in flight.
-    if (feature_threads >= 2) pool_ = std::make_unique<WorkerPool>(1, 1);
+    // A queue of one: the processor never has more than one job in flight. The same worker
+    // shares the four-view RANSAC's hypotheses once the features are in (paper III-C).
+    if (feature_threads >= 2) {
+      pool_ = std::make_unique<WorkerPool>(1, 1);
+      ransac_parallel_.emplace(*pool_);
+      odo_.setParallelFor(&*ransac_parallel_);
+    }
   }
+  OdometryProcessor(const OdometryProcessor&) = delete;
+  OdometryProcessor& operator=(const OdometryProcessor&) = delete;
 
   /// Threads used for feature extraction (1 or 2).
   std::size_t featureThreads() const { return pool_ ? 2 : 1; }
   /// Frames whose right image went to the worker (the rest ran sequentially, e.g. because
   /// the worker queue refused the job).
   std::size_t parallelFrames() const { return parallel_frames_; }
+  /// RANSAC batches whose hypotheses were shared with the worker.
+  std::size_t parallelRansacBatches() const { return ransac_parallel_ ? ransac_parallel_->sharedRuns() : 0; }
   const odometry::Odometry& odometry() const { return odo_; }
 
   /// std::chrono::steady_clock now [ns].
@@ -139,6 +149,8 @@ class OdometryProcessor : public FrameProcessor {
     odo_.frontend().rectifySide(1, *right_.frame, ws_);
     odo_.frontend().detect(ws_.right_rect, right_.threshold, ws_.surf_right, *right_.out, right_.steer_deg);
   }};
+  /// The worker as the RANSAC's ParallelFor; declared before pool_ for the same reason.
+  std::optional<PoolParallelFor> ransac_parallel_;
   std::unique_ptr<WorkerPool> pool_;  ///< one persistent worker; null when sequential
   odometry::FrontendWorkspace ws_;    ///< rectified images and filter buffers, reused across frames
   odometry::FrameFeatures spare_;     ///< an earlier frame's buffers, refilled each frame

@@ -30,6 +30,8 @@ struct SequenceRun {
   /// Per frame, the IMU biases the odometry holds after it (gyro: still start and vision;
   /// accelerometer: odometry.accel_bias), to compare with a simulator's true biases.
   std::vector<Eigen::Vector3d> gyro_bias_rad_s, accel_bias_m_s2;
+  /// RANSAC batches whose hypotheses were shared with the worker (feature_threads 2).
+  std::size_t parallel_ransac_batches = 0;
 };
 
 /// Monotonic wall clock [ns] (std::chrono::steady_clock), the clock the stage times use.
@@ -42,8 +44,9 @@ int64_t threadCpuNowNs();
 /// the IMU samples from the one before the previous frame to the first one after this frame
 /// (the odometry interpolates, it does not double-count). Deterministic for a given `params`,
 /// and identical for any `feature_threads`: 1 extracts left and right features in turn, 2
-/// (default) the right image on a persistent worker while the left runs on the caller,
-/// through the daemon's OdometryProcessor.
+/// (default) the right image on a persistent worker while the left runs on the caller, and
+/// the four-view RANSAC's hypotheses shared with that worker, through the daemon's
+/// OdometryProcessor.
 /// `stage_clock` times the stages (OdometryResult::times); it changes no estimate.
 /// Throws drivers::InputError naming the dataset if it has no frames or its calibration
 /// cannot be rectified, and whatever drivers::loadFrame throws for an unreadable image.

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
@@ -80,6 +81,7 @@ void QuadrifocalRansac::reserve(std::size_t max_matches) {
   points_.reserve(max_matches);
   points_trial_.reserve(max_matches);
   blocks_.reserve(max_matches);
+  batch_.reserve(kBatch);
 }
 
 bool QuadrifocalRansac::triangulate(const Eigen::Vector2f& left, const Eigen::Vector2f& right,
@@ -200,36 +202,46 @@ void QuadrifocalRansac::estimate(std::span<const QuadMatch> matches,
   };
   updateBudget(best.inliers);
 
+  // Hypotheses in batches: drawn in order, made and scored (on parallel_ when set), then taken
+  // in the order drawn, stopping where the sequential loop would. A batch is scored against
+  // the best cost at its start: a looser bound than the sequential one only scores a losing
+  // hypothesis further, so every decision is the same. Samples drawn past the stop are
+  // drawn again from the batch's start, leaving the generator as the sequential loop would.
+  const Eigen::Isometry3d* prior = prior_ok ? &T_prev_curr_prior : nullptr;
+  const int batch = parallel_ ? kBatch : 1;
   int degenerate = 0, it = 0;
-  Eigen::Matrix3d src, dst;
-  for (; it < budget; ++it) {
-    const std::size_t a = pick(rng);
-    std::size_t b = pick(rng), c = pick(rng);
-    if (b == a || c == a || c == b) {
-      ++degenerate;
-      continue;
+  auto draw = [&](Hypothesis& h) {
+    h.a = pick(rng);
+    h.b = pick(rng);
+    h.c = pick(rng);
+  };
+  while (it < budget) {
+    const int n = std::min(batch, params_.max_iterations - it);
+    std::optional<std::mt19937> rng_at_batch;
+    if (n > 1) rng_at_batch.emplace(rng);
+    batch_.resize(static_cast<std::size_t>(n));
+    for (Hypothesis& h : batch_) draw(h);
+    batch_prior_ = prior;
+    batch_bound_ = best.cost;
+    if (n > 1)  // capturing `this` alone keeps the std::function in its small buffer: no allocation
+      parallel_->run(batch_.size(), [this](std::size_t j) { makeHypothesis(batch_[j], batch_prior_, batch_bound_); });
+    else
+      makeHypothesis(batch_[0], batch_prior_, batch_bound_);
+    int taken = 0;
+    for (; taken < n && it < budget; ++taken, ++it) {
+      const Hypothesis& h = batch_[static_cast<std::size_t>(taken)];
+      if (h.made == Made::kDegenerate) ++degenerate;
+      if (h.made != Made::kScored) continue;
+      if (h.scored.inliers > 0 && h.scored.cost < best.cost) {
+        best = h.scored;
+        best_T = h.T;
+        updateBudget(best.inliers);
+      }
     }
-    const uint32_t ia = usable_[a], ib = usable_[b], ic = usable_[c];
-    src << p_curr_[ia], p_curr_[ib], p_curr_[ic];
-    dst << p_prev_[ia], p_prev_[ib], p_prev_[ic];
-    // A near-collinear triple fixes no rotation about its line (triangle area in m^2).
-    const double area_prev = (dst.col(1) - dst.col(0)).cross(dst.col(2) - dst.col(0)).norm();
-    const double area_curr = (src.col(1) - src.col(0)).cross(src.col(2) - src.col(0)).norm();
-    if (area_prev < 1e-4 || area_curr < 1e-4) {
-      ++degenerate;
-      continue;
-    }
-    const Eigen::Isometry3d T = alignThree(src, dst);
-    if (!finite(T)) {
-      ++degenerate;
-      continue;
-    }
-    if (prior_ok && !withinPrior(T, T_prev_curr_prior)) continue;
-    const Scored s = score(T, best.cost);
-    if (s.inliers > 0 && s.cost < best.cost) {
-      best = s;
-      best_T = T;
-      updateBudget(s.inliers);
+    if (taken < n) {
+      rng = *rng_at_batch;
+      Hypothesis redrawn;
+      for (int j = 0; j < taken; ++j) draw(redrawn);
     }
   }
   result.iterations = it;
@@ -242,6 +254,28 @@ void QuadrifocalRansac::estimate(std::span<const QuadMatch> matches,
   }
 
   finish(matches, best_T, std::move(inliers), params_.inlier_threshold_px, result);
+}
+
+void QuadrifocalRansac::makeHypothesis(Hypothesis& h, const Eigen::Isometry3d* prior, double bound) const {
+  h.made = Made::kDegenerate;
+  if (h.b == h.a || h.c == h.a || h.c == h.b) return;
+  const uint32_t ia = usable_[h.a], ib = usable_[h.b], ic = usable_[h.c];
+  Eigen::Matrix3d src, dst;
+  src << p_curr_[ia], p_curr_[ib], p_curr_[ic];
+  dst << p_prev_[ia], p_prev_[ib], p_prev_[ic];
+  // A near-collinear triple fixes no rotation about its line (triangle area in m^2).
+  const double area_prev = (dst.col(1) - dst.col(0)).cross(dst.col(2) - dst.col(0)).norm();
+  const double area_curr = (src.col(1) - src.col(0)).cross(src.col(2) - src.col(0)).norm();
+  if (area_prev < 1e-4 || area_curr < 1e-4) return;
+  const Eigen::Isometry3d T = alignThree(src, dst);
+  if (!finite(T)) return;
+  if (prior && !withinPrior(T, *prior)) {
+    h.made = Made::kOutsidePrior;
+    return;
+  }
+  h.T = T;
+  h.scored = score(T, bound);
+  h.made = Made::kScored;
 }
 
 void QuadrifocalRansac::triangulateAll(std::span<const QuadMatch> matches) {

@@ -11,6 +11,7 @@
 #include <Eigen/Geometry>
 
 #include "core/camera/rectified_rig.hpp"
+#include "core/common/parallel_for.hpp"
 
 namespace seavio::geometry {
 
@@ -84,11 +85,30 @@ class QuadrifocalRansac {
 
   const QuadRansacParams& params() const { return params_; }
 
+  /// Hypotheses are then made and scored in batches on `parallel` (nullptr: on the caller),
+  /// and taken in the order they were drawn, so the result and the generator's state after
+  /// estimate() are the same as without it, for any number of threads. Not owned.
+  void setParallelFor(ParallelFor* parallel) { parallel_ = parallel; }
+
+  /// Hypotheses made and scored per batch with a ParallelFor: enough to share between a few
+  /// threads, few enough that little is scored past the adaptive stop.
+  static constexpr int kBatch = 16;
+
  private:
   struct Scored {
     double cost = 0;
     int inliers = 0;
   };
+  /// One hypothesis: its sample (indices into usable_) and, once made, its motion and score.
+  enum class Made : uint8_t { kDegenerate, kOutsidePrior, kScored };
+  struct Hypothesis {
+    std::size_t a = 0, b = 0, c = 0;
+    Made made = Made::kDegenerate;
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    Scored scored;
+  };
+  /// Aligns the three matches of `h` and scores the motion against a best cost of `bound`.
+  void makeHypothesis(Hypothesis& h, const Eigen::Isometry3d* prior, double bound) const;
   bool triangulate(const Eigen::Vector2f& left, const Eigen::Vector2f& right,
                    Eigen::Vector3d& p) const;
   /// Both pairs' triangulations of every match; the usable ones listed in usable_.
@@ -129,6 +149,10 @@ class QuadrifocalRansac {
     Eigen::Vector3d gl;
   };
   std::vector<PointBlock> blocks_;
+  ParallelFor* parallel_ = nullptr;
+  std::vector<Hypothesis> batch_;
+  const Eigen::Isometry3d* batch_prior_ = nullptr;  ///< the batch's prior (nullptr: none)
+  double batch_bound_ = 0;                         ///< the best cost when the batch was drawn
 };
 
 }  // namespace seavio::geometry

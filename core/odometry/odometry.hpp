@@ -195,6 +195,13 @@ class Odometry {
   GlobalRefiner makeGlobalRefiner(NowNsFn now = {}) const;
 
   const Frontend& frontend() const { return frontend_; }
+  /// The frame-to-frame RANSACs make and score their hypotheses on `parallel` (nullptr: on the
+  /// calling thread); the poses do not depend on it. Not owned; the global refiner's RANSAC,
+  /// which may run on another thread, stays on its own.
+  void setParallelFor(ParallelFor* parallel) {
+    ransac_.setParallelFor(parallel);
+    rescue_ransac_.setParallelFor(parallel);
+  }
   double detectorThreshold() const { return controller_.threshold(); }
   /// What to leave out from the next frame on (the daemon's overload ladder).
   void setLoadShedding(const LoadShedding& shed) { shed_ = shed; }

@@ -11,6 +11,8 @@
 #include "core/geometry/quadrifocal_ransac.hpp"
 #include "core/icp/icp.hpp"
 #include "core/icp/point_cloud_index.hpp"
+#include "daemon/pool_parallel_for.hpp"
+#include "daemon/worker_pool.hpp"
 #include "tests/core/geometry/synthetic_scene.hpp"
 
 namespace {
@@ -36,6 +38,38 @@ void BM_QuadrifocalRansac(benchmark::State& state) {
   state.counters["inliers"] = double(inliers);
 }
 BENCHMARK(BM_QuadrifocalRansac)->Arg(100)->Arg(150)->Unit(benchmark::kMillisecond);
+
+/// range(0) matches, half of them wrong (a frame in snow or on weak texture: the adaptive
+/// stop needs ~55 hypotheses), hypotheses on range(1) threads: the caller alone, or the caller
+/// and one pool worker as in the daemon (daemon/pool_parallel_for.hpp). Same output.
+void BM_QuadrifocalRansacThreads(benchmark::State& state) {
+  const auto rig = geometry::testing::makeRig();
+  const Eigen::Isometry3d T = geometry::testing::makeMotion();
+  std::mt19937 rng(1);
+  const auto scene = geometry::testing::makeScene(rig, T, int(state.range(0)), 0.5, 0.3, rng);
+  Eigen::Isometry3d prior = T;
+  prior.translation() += Eigen::Vector3d(0.02, 0.01, 0);
+  geometry::QuadrifocalRansac ransac(rig, {});
+  ransac.reserve(scene.matches.size());
+  daemon::WorkerPool pool(1, 1);
+  daemon::PoolParallelFor parallel(pool);
+  if (state.range(1) >= 2) ransac.setParallelFor(&parallel);
+  int iterations = 0;
+  for (auto _ : state) {
+    const auto r = ransac.estimate(scene.matches, prior, rng);
+    iterations = r.iterations;
+    benchmark::DoNotOptimize(r.T_prev_curr);
+  }
+  state.counters["hypotheses"] = double(iterations);
+}
+BENCHMARK(BM_QuadrifocalRansacThreads)
+    ->Args({400, 1})
+    ->Args({400, 2})
+    ->Args({1000, 1})
+    ->Args({1000, 2})
+    ->ArgNames({"matches", "threads"})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 double depth(double x, double y) {
   return 4.0 + 0.12 * std::sin(1.7 * x) * std::cos(1.3 * y) + 0.05 * std::sin(4.1 * x + 2.3 * y);

@@ -1,6 +1,7 @@
 // `seavio run --threads 2` extracts the right image's features on a persistent worker while
-// the left runs on the caller. Only the order of independent work changes, so every
-// pose, covariance and count must be bit-identical to the sequential run.
+// the left runs on the caller, and shares the four-view RANSAC's hypotheses with that worker.
+// Only the order of independent work changes, so every pose, covariance and count must be
+// bit-identical to the sequential run.
 #include <cstring>
 #include <filesystem>
 #include <string>
@@ -21,7 +22,7 @@ bool sameBits(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
   return std::memcmp(a.matrix().data(), b.matrix().data(), sizeof(double) * 16) == 0;
 }
 
-TEST(RunThreads, ParallelFeaturesGiveBitIdenticalTrajectoriesInBothModes) {
+TEST(RunThreads, ParallelFeaturesAndRansacGiveBitIdenticalTrajectoriesInBothModes) {
   // GIVEN a short simulated survey at a reduced resolution (quick), long enough for the global
   // map to hold several keyframes
   const std::string dir = (fs::temp_directory_path() / "seavio_run_threads").string();
@@ -61,8 +62,10 @@ TEST(RunThreads, ParallelFeaturesGiveBitIdenticalTrajectoriesInBothModes) {
     }
     EXPECT_EQ(one.map_keyframes, two.map_keyframes);
     EXPECT_EQ(one.map_points, two.map_points);
-    // The comparison means something only if the visual path ran.
+    // The comparison means something only if the visual path ran, and the RANSAC on the worker.
     EXPECT_GT(tracked, static_cast<int>(one.results.size()) / 2);
+    EXPECT_EQ(one.parallel_ransac_batches, 0u);
+    EXPECT_GT(two.parallel_ransac_batches, static_cast<std::size_t>(tracked));
   }
   fs::remove_all(dir);
 }
