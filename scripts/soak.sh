@@ -239,7 +239,7 @@ pct() {  # pct Q: nearest-rank percentile of the numbers on stdin, "nan" if none
 # publication (its capture, processing and publication, and one sample more: a rival that
 # exits between two samples leaves no trace in the second), another process's real-time thread
 # ran (> 0.05 s CPU) or the hypervisor stole more than 0.1 s of the CPUs: neither happens on
-# the vehicle (soak 4, docs/reliability.md: the bursts of 40-110 ms frames came with one or
+# the vehicle (docs/reliability.md, "Soak": the bursts of 40-110 ms frames came with one or
 # the other).
 window_split() {
   local t0

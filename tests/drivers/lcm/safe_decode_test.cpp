@@ -29,6 +29,19 @@ std::vector<uint8_t> encode(const auto& msg) {
   return buf;
 }
 
+/// A status message timing the named stages (p50 i+1, p99 i+3, misses i+5 for stage i).
+seavio_lcm::status_t statusWithStages(const std::vector<std::string>& names) {
+  seavio_lcm::status_t status{};
+  status.num_stages = static_cast<int16_t>(names.size());
+  status.stage_names = names;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    status.p50_ms.push_back(static_cast<double>(i + 1));
+    status.p99_ms.push_back(static_cast<double>(i + 3));
+    status.deadline_misses.push_back(static_cast<int64_t>(i + 5));
+  }
+  return status;
+}
+
 void putBigEndianI32(std::vector<uint8_t>& b, std::size_t at, int32_t v) {
   const auto u = static_cast<uint32_t>(v);
   for (int i = 0; i < 4; ++i) b[at + static_cast<std::size_t>(i)] = static_cast<uint8_t>(u >> (24 - 8 * i));
@@ -100,13 +113,7 @@ TEST(SafeDecode, StageCountOffsetsMatchTheEncodedTypes) {
   const auto p = encode(pose);
   EXPECT_EQ((p[kPoseStageCountAt] << 8) | p[kPoseStageCountAt + 1], 3);
   EXPECT_EQ(p[kPoseStageCountAt + 2 + 3], 2);  // length of "a" with its NUL, low byte
-  seavio_lcm::status_t status{};
-  status.num_stages = 2;
-  status.stage_names = {"x", "y"};
-  status.p50_ms = {1, 2};
-  status.p99_ms = {3, 4};
-  status.deadline_misses = {0, 0};
-  const auto st = encode(status);
+  const auto st = encode(statusWithStages({"x", "y"}));
   EXPECT_EQ((st[kStatusStageCountAt] << 8) | st[kStatusStageCountAt + 1], 2);
   EXPECT_EQ(st[kStatusStageCountAt + 2 + 3], 2);
   seavio_lcm::status_t out{};
@@ -114,13 +121,7 @@ TEST(SafeDecode, StageCountOffsetsMatchTheEncodedTypes) {
 }
 
 TEST(SafeDecode, MinimumStringLengthInStatusIsAFailure) {
-  seavio_lcm::status_t status{};
-  status.num_stages = 1;
-  status.stage_names = {"features"};
-  status.p50_ms = {1};
-  status.p99_ms = {2};
-  status.deadline_misses = {0};
-  auto st = encode(status);
+  auto st = encode(statusWithStages({"features"}));
   putBigEndianI32(st, seavio::drivers::detail::kStatusStageCountAt + 2, INT32_MIN);
   seavio_lcm::status_t out{};
   EXPECT_FALSE(decodeLcm(out, st.data(), st.size()));
@@ -140,12 +141,7 @@ std::size_t lengthOf(const std::vector<uint8_t>& buf, const std::string& text) {
 // decoding fails (lcm-gen computes length - 1 in int: INT32_MIN overflowed, and wrapped to a
 // 2 GiB copy past the buffer), and the unaltered messages decode.
 TEST(SafeDecode, EveryStringLengthOfStatusAndCalibrationIsChecked) {
-  seavio_lcm::status_t status{};
-  status.num_stages = 2;
-  status.stage_names = {"features", "tensor"};
-  status.p50_ms = {1, 2};
-  status.p99_ms = {3, 4};
-  status.deadline_misses = {5, 6};
+  seavio_lcm::status_t status = statusWithStages({"features", "tensor"});
   status.fault = "estimator: boom";
   status.degrade = "fewer features";
   const auto st = encode(status);
