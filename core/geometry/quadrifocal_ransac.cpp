@@ -202,8 +202,9 @@ void QuadrifocalRansac::estimate(std::span<const QuadMatch> matches,
   };
   updateBudget(best.inliers);
 
-  // Hypotheses in batches: drawn in order, made and scored (on parallel_ when set), then taken
-  // in the order drawn, stopping where the sequential loop would. A batch is scored against
+  // Hypotheses in batches, none past the budget at the batch's start: drawn in order, made and
+  // scored (on parallel_ when set), then taken in the order drawn, stopping where the
+  // sequential loop would (the budget shrinks as better hypotheses come). A batch is scored against
   // the best cost at its start: a looser bound than the sequential one only scores a losing
   // hypothesis further, so every decision is the same. Samples drawn past the stop are
   // drawn again from the batch's start, leaving the generator as the sequential loop would.
@@ -216,7 +217,7 @@ void QuadrifocalRansac::estimate(std::span<const QuadMatch> matches,
     h.c = pick(rng);
   };
   while (it < budget) {
-    const int n = std::min(batch, params_.max_iterations - it);
+    const int n = std::min(batch, budget - it);
     std::optional<std::mt19937> rng_at_batch;
     if (n > 1) rng_at_batch.emplace(rng);
     batch_.resize(static_cast<std::size_t>(n));

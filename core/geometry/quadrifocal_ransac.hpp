@@ -90,9 +90,10 @@ class QuadrifocalRansac {
   /// estimate() are the same as without it, for any number of threads. Not owned.
   void setParallelFor(ParallelFor* parallel) { parallel_ = parallel; }
 
-  /// Hypotheses made and scored per batch with a ParallelFor: enough to share between a few
-  /// threads, few enough that little is scored past the adaptive stop.
-  static constexpr int kBatch = 16;
+  /// Hypotheses made and scored per batch with a ParallelFor, at most up to the adaptive
+  /// budget at the batch's start: each batch costs a hand-over to the pool's threads (tens of
+  /// microseconds), so a batch takes as much as it can without scoring past the stop.
+  static constexpr int kBatch = 64;
 
  private:
   struct Scored {

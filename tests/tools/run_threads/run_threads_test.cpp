@@ -65,7 +65,7 @@ TEST(RunThreads, ParallelFeaturesAndRansacGiveBitIdenticalTrajectoriesInBothMode
     // The comparison means something only if the visual path ran, and the RANSAC on the worker.
     EXPECT_GT(tracked, static_cast<int>(one.results.size()) / 2);
     EXPECT_EQ(one.parallel_ransac_batches, 0u);
-    EXPECT_GT(two.parallel_ransac_batches, static_cast<std::size_t>(tracked));
+    EXPECT_GE(two.parallel_ransac_batches, static_cast<std::size_t>(tracked));
   }
   fs::remove_all(dir);
 }
