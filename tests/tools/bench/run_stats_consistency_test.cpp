@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include "tests/tools/bench/stats_json_text.hpp"
 #include "tools/run_stats.hpp"
 
 namespace seavio::tools {
@@ -22,14 +23,7 @@ TEST(RunStatsConsistency, BiasSigmasOnEveryFrameAndTheIncrementCovarianceOnVisua
   visual.increment_covariance(0, 5) = visual.increment_covariance(5, 0) = 7e-8;
   stats.add(coasted);
   stats.add(visual);
-  const std::filesystem::path json = std::filesystem::temp_directory_path() /
-                                     ("seavio_run_stats_consistency_" + std::to_string(getpid()) + ".json");
-  stats.writeJson(json.string());
-  std::ifstream in(json);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  const std::string s = ss.str();
-  std::filesystem::remove(json);
+  const std::string s = testing::statsJsonText(stats, "run_stats_consistency");
   const std::string sigma_text =
       "\"gyro_bias_sigma_rad_s\": [1.0000e-04, 2.0000e-04, 3.0000e-04], "
       "\"accel_bias_sigma_m_s2\": [1.0000e-02, 2.0000e-02, 3.0000e-02]";

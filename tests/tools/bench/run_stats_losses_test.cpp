@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include "tests/tools/bench/stats_json_text.hpp"
 #include "tools/run_stats.hpp"
 
 namespace seavio::tools {
@@ -57,14 +58,7 @@ TEST(RunStatsLosses, TheTableAndTheJsonCarryTheCounts) {
   // WHEN the table is printed and the JSON written
   std::ostringstream table;
   stats.printTable(table);
-  const std::filesystem::path json =
-      std::filesystem::temp_directory_path() / ("seavio_run_stats_losses_" + std::to_string(getpid()) + ".json");
-  stats.writeJson(json.string());
-  std::ifstream in(json);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  const std::string s = ss.str();
-  std::filesystem::remove(json);
+  const std::string s = testing::statsJsonText(stats, "run_stats_losses");
   // THEN the table names each kind that occurred, frames (outages)
   EXPECT_NE(table.str().find("IMU-only frames 7 in 3 outages: inertial 4 (2) no_imu 2 (1) held 1 (0)"),
             std::string::npos)
