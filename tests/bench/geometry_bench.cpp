@@ -19,15 +19,27 @@ namespace {
 
 using namespace seavio;
 
+/// A RANSAC input: `matches` of the synthetic scene with `outliers` of them wrong, 0.3 px
+/// noise, and a prior 2 cm off the true motion.
+struct RansacCase {
+  RansacCase(int matches, double outliers, std::mt19937& rng)
+      : rig(geometry::testing::makeRig()),
+        scene(geometry::testing::makeScene(rig, geometry::testing::makeMotion(), matches, outliers, 0.3, rng)),
+        prior(geometry::testing::makeMotion()) {
+    prior.translation() += Eigen::Vector3d(0.02, 0.01, 0);
+  }
+  camera::RectifiedRig rig;
+  geometry::testing::Scene scene;
+  Eigen::Isometry3d prior;
+};
+
 /// range(0) matches, 30% outliers, 0.3 px noise (goal: <= 1 ms at 100).
 void BM_QuadrifocalRansac(benchmark::State& state) {
-  const auto rig = geometry::testing::makeRig();
-  const Eigen::Isometry3d T = geometry::testing::makeMotion();
   std::mt19937 rng(1);
-  const auto scene = geometry::testing::makeScene(rig, T, int(state.range(0)), 0.3, 0.3, rng);
-  Eigen::Isometry3d prior = T;
-  prior.translation() += Eigen::Vector3d(0.02, 0.01, 0);
-  geometry::QuadrifocalRansac ransac(rig, {});
+  const RansacCase c(int(state.range(0)), 0.3, rng);
+  const auto& scene = c.scene;
+  const Eigen::Isometry3d& prior = c.prior;
+  geometry::QuadrifocalRansac ransac(c.rig, {});
   ransac.reserve(scene.matches.size());
   std::size_t inliers = 0;
   for (auto _ : state) {
@@ -43,13 +55,11 @@ BENCHMARK(BM_QuadrifocalRansac)->Arg(100)->Arg(150)->Unit(benchmark::kMillisecon
 /// stop needs ~55 hypotheses), hypotheses on range(1) threads: the caller alone, or the caller
 /// and one pool worker as in the daemon (daemon/pool_parallel_for.hpp). Same output.
 void BM_QuadrifocalRansacThreads(benchmark::State& state) {
-  const auto rig = geometry::testing::makeRig();
-  const Eigen::Isometry3d T = geometry::testing::makeMotion();
   std::mt19937 rng(1);
-  const auto scene = geometry::testing::makeScene(rig, T, int(state.range(0)), 0.5, 0.3, rng);
-  Eigen::Isometry3d prior = T;
-  prior.translation() += Eigen::Vector3d(0.02, 0.01, 0);
-  geometry::QuadrifocalRansac ransac(rig, {});
+  const RansacCase c(int(state.range(0)), 0.5, rng);
+  const auto& scene = c.scene;
+  const Eigen::Isometry3d& prior = c.prior;
+  geometry::QuadrifocalRansac ransac(c.rig, {});
   ransac.reserve(scene.matches.size());
   daemon::WorkerPool pool(1, 1);
   daemon::PoolParallelFor parallel(pool);

@@ -26,6 +26,14 @@ using testing::translationError;
 
 constexpr double kDeg = M_PI / 180.0;
 
+/// An IMU prediction of motion `T`: off by 3 cm and 1 degree.
+Eigen::Isometry3d imuLikePrior(const Eigen::Isometry3d& T) {
+  Eigen::Isometry3d prior = T;
+  prior.translation() += Eigen::Vector3d(0.03, -0.01, 0.0);
+  prior.linear() = prior.linear() * Eigen::AngleAxisd(1 * kDeg, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  return prior;
+}
+
 bool allFinite(const RansacResult& r) {
   return r.T_prev_curr.matrix().allFinite() && r.covariance.allFinite() && std::isfinite(r.rms_px);
 }
@@ -59,9 +67,7 @@ TEST(QuadrifocalRansac, RecoversMotionFromNoisyMatchesWithHalfOutliers) {
   // prior off by 3 cm and 1 degree (an IMU prediction)
   const auto rig = makeRig();
   const Eigen::Isometry3d T = makeMotion();
-  Eigen::Isometry3d prior = T;
-  prior.translation() += Eigen::Vector3d(0.03, -0.01, 0.0);
-  prior.linear() = prior.linear() * Eigen::AngleAxisd(1 * kDeg, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  const Eigen::Isometry3d prior = imuLikePrior(T);
   QuadRansacParams params;
   params.prior_max_translation_m = 0.2;
   params.prior_max_rotation_rad = 5 * kDeg;
@@ -355,9 +361,7 @@ TEST(QuadrifocalRansac, HypothesesOnAParallelForGiveTheSequentialResult) {
   // adaptive stop then falls anywhere inside a batch, or at the iteration cap)
   const auto rig = makeRig();
   const Eigen::Isometry3d T = makeMotion();
-  Eigen::Isometry3d prior = T;
-  prior.translation() += Eigen::Vector3d(0.03, -0.01, 0.0);
-  prior.linear() = prior.linear() * Eigen::AngleAxisd(1 * kDeg, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  const Eigen::Isometry3d prior = imuLikePrior(T);
   for (const double outliers : {0.2, 0.5, 0.8})
     for (const bool window : {false, true})
       for (uint32_t seed = 1; seed <= 6; ++seed) {
