@@ -234,10 +234,11 @@ void Daemon::raiseFault(int code, const std::string& why) {
     const std::lock_guard<std::mutex> lock(fault_mutex_);
     if (fault_code_.load() != 0) return;  // the first fault is the one that explains the exit
     fault_ = why;
+    // Said before the code is set: whoever sees the code (main's exit, a test) sees it said.
+    spdlog::critical("seaviod must exit (status {}): {}", code, why);
+    notifier_->notify("STATUS=fault: " + why);
     fault_code_ = code;
   }
-  spdlog::critical("seaviod must exit (status {}): {}", code, why);
-  notifier_->notify("STATUS=fault: " + why);
 }
 
 std::string Daemon::fault() const {
