@@ -42,11 +42,12 @@ struct SimulatedBlock {
 
 /// The paper's scenario rendered independently of the tuning presets (survey-plain/-snow: 10 Hz,
 /// 640x480, 1200 frames), as the presets have it ("rest") and with everything a real vehicle
-/// adds at once ("sea": moving at start, consumer IMU, waves, mount misalignment, time offset);
-/// the full run adds the start while moving alone, on one seed: its cost against "rest".
+/// adds at once ("sea": moving at start, consumer IMU, waves, mount misalignment, time offset),
+/// and what the survey's conduct adds ("operations": a stop to hover, auto-exposure steps); the
+/// full run adds the start while moving alone, on one seed: its cost against "rest".
 SimulatedBlock simulatedBlock(bool quick) {
-  if (quick) return {{"survey-plain", "survey-snow"}, {{"rest", 1}, {"sea", 1}}, 300};
-  return {{"survey-plain", "survey-snow"}, {{"rest", 2}, {"sea", 2}, {"moving", 1}}, 0};
+  if (quick) return {{"survey-plain", "survey-snow"}, {{"rest", 1}, {"sea", 1}, {"operations", 1}}, 300};
+  return {{"survey-plain", "survey-snow"}, {{"rest", 2}, {"sea", 2}, {"moving", 1}, {"operations", 1}}, 0};
 }
 
 simulate::SimConfig sequenceConfig(const ValidationSequence& s) {

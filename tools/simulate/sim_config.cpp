@@ -96,7 +96,7 @@ SimConfig presetConfig(const std::string& name) {
 }
 
 std::vector<std::string> conditionNames() {
-  return {"rest", "moving", "consumer-imu", "waves", "misaligned", "time-offset", "hover", "exposure", "sea"};
+  return {"rest", "moving", "consumer-imu", "waves", "misaligned", "time-offset", "hover", "exposure", "sea", "operations"};
 }
 
 void applyCondition(SimConfig& c, const std::string& name) {
@@ -136,6 +136,9 @@ void applyCondition(SimConfig& c, const std::string& name) {
     c.lighting.exposure_drift_period_s = 45.0;
   } else if (name == "sea") {
     for (const char* part : {"moving", "consumer-imu", "waves", "misaligned", "time-offset"}) applyCondition(c, part);
+  } else if (name == "operations") {
+    // What the survey's own conduct adds: a stop to hover mid-lane and auto-exposure stepping.
+    for (const char* part : {"hover", "exposure"}) applyCondition(c, part);
   } else {
     throw unknownName("condition", name, conditionNames());
   }

@@ -126,7 +126,8 @@ TEST_F(Cli, BenchValidateReportsEveryRunOfTheMatrix) {
             0)
       << slurp(logPath());
   const std::string table = slurp(out / "validate.txt"), json = slurp(out / "validate.json");
-  const std::vector<std::string> sequences = {"survey-plain/rest/70000", "survey-snow/rest/70000", "survey-plain/sea/70000", "survey-snow/sea/70000", "tiny"};
+  const std::vector<std::string> sequences = {"survey-plain/rest/70000", "survey-snow/rest/70000", "survey-plain/sea/70000", "survey-snow/sea/70000",
+                                                "survey-plain/operations/70000", "survey-snow/operations/70000", "tiny"};
   for (const auto& name : sequences) {
     for (const char* mode : {"local ", "global"}) {
       EXPECT_NE(table.find(name + std::string(44 - name.size(), ' ') + mode), std::string::npos) << name << table;
@@ -136,8 +137,8 @@ TEST_F(Cli, BenchValidateReportsEveryRunOfTheMatrix) {
   std::size_t runs = 0, no_imu = 0;
   for (std::size_t at = json.find("\"mode\": "); at != std::string::npos; at = json.find("\"mode\": ", at + 1)) ++runs;
   for (std::size_t at = json.find("\"no_imu\": {"); at != std::string::npos; at = json.find("\"no_imu\": {", at + 1)) ++no_imu;
-  EXPECT_EQ(runs, 10u);
-  EXPECT_EQ(no_imu, 10u);
+  EXPECT_EQ(runs, 14u);
+  EXPECT_EQ(no_imu, 14u);
   EXPECT_EQ(json.find("\"frames\": 0,"), std::string::npos) << "a run processed no frame";
   EXPECT_NE(table.find("median mean"), std::string::npos) << table;
   EXPECT_NE(table.find("consistency: bias"), std::string::npos) << table;
@@ -153,12 +154,12 @@ TEST_F(Cli, BenchValidateReportsEveryRunOfTheMatrix) {
   const std::string frames_key = "\"nees_frames\": ";
   for (std::size_t at = json.find(frames_key); at != std::string::npos; at = json.find(frames_key, at + 1))
     judged += std::stoi(json.substr(at + frames_key.size(), 10)) > 0;
-  EXPECT_EQ(fractions, 20u);
+  EXPECT_EQ(fractions, 28u);
   EXPECT_GT(judged, 0u);
   std::size_t unknown_bias = 0;
   const std::string bias_key = "\"bias_within_3sigma_fraction\": null";
   for (std::size_t at = json.find(bias_key); at != std::string::npos; at = json.find(bias_key, at + 1)) ++unknown_bias;
-  EXPECT_EQ(unknown_bias, 20u);
+  EXPECT_EQ(unknown_bias, 28u);
   EXPECT_GT(fs::file_size(out / "validate.png"), 1000u);
 }
 

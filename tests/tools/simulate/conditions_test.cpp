@@ -62,7 +62,7 @@ double amplitudeAt(const std::vector<double>& x, double dt_s, double period_s) {
 
 TEST(Conditions, NamesAreKnownComposableAndUnknownOnesAreListed) {
   EXPECT_THAT(conditionNames(), ::testing::IsSupersetOf({"rest", "moving", "consumer-imu", "waves", "misaligned",
-                                                         "time-offset", "hover", "exposure", "sea"}));
+                                                         "time-offset", "hover", "exposure", "sea", "operations"}));
   SimConfig c = presetConfig("survey-plain");
   try {
     applyCondition(c, "storm");
@@ -87,6 +87,16 @@ TEST(Conditions, NamesAreKnownComposableAndUnknownOnesAreListed) {
   EXPECT_GT(sea.imu_time_offset_s, 0.0);
   EXPECT_EQ(sea.trajectory.hover_s, 0.0);  // not part of sea
   EXPECT_NO_THROW(validate(sea));
+  // operations is the hover and the exposure steps, on the preset's own start.
+  SimConfig ops = presetConfig("survey-plain"), ops_parts = presetConfig("survey-plain");
+  applyCondition(ops, "operations");
+  for (const char* p : {"hover", "exposure"}) applyCondition(ops_parts, p);
+  EXPECT_GT(ops.trajectory.hover_s, 0.0);
+  EXPECT_EQ(ops.trajectory.hover_start_s, ops_parts.trajectory.hover_start_s);
+  EXPECT_EQ(ops.lighting.exposure_steps, ops_parts.lighting.exposure_steps);
+  EXPECT_GT(ops.lighting.exposure_drift, 0.0);
+  EXPECT_EQ(ops.trajectory.begin_s, 0.0);
+  EXPECT_NO_THROW(validate(ops));
 }
 
 TEST(Conditions, SurveyPresetsFlyThePapersScenario) {
