@@ -51,7 +51,7 @@ class OdometryProcessor : public FrameProcessor {
       r = odo_.process(frame, imu);
     } else {
       // Into the buffers of an earlier frame, which track() hands back.
-      extractParallel(frame, imu, spare_);
+      extractParallel(frame, spare_);
       r = odo_.track(std::move(spare_), imu);
     }
     refusal_log_.add(r);
@@ -90,7 +90,7 @@ class OdometryProcessor : public FrameProcessor {
   }
 
  private:
-  void extractParallel(const StereoFrame& frame, std::span<const ImuSample> imu, odometry::FrameFeatures& f) {
+  void extractParallel(const StereoFrame& frame, odometry::FrameFeatures& f) {
     const odometry::Frontend& frontend = odo_.frontend();
     f.times = StageTimes{};
     f.t_ns = frame.t_ns;
@@ -101,16 +101,15 @@ class OdometryProcessor : public FrameProcessor {
     // SURF buffers in ws_, so the right image is rectified and described on the worker while
     // the left one is on this thread (rectify_ms is then the left image's).
     const double threshold = f.detector_threshold;
-    const float steer_deg = odo_.descriptorSteeringDeg(frame.t_ns, imu);
     // The right image's job reads its inputs from here (set once per frame: posting it
     // allocates nothing).
-    right_ = RightInput{&frame, threshold, steer_deg, &f.right};
+    right_ = RightInput{&frame, threshold, &f.right};
     const bool posted = pool_->post(right_job_);
     try {
       frontend.rectifySide(0, frame, ws_);
       if (!posted) frontend.rectifySide(1, frame, ws_);
       f.times.rectify_ms = timer.lap_ms();
-      frontend.detect(ws_.left_rect, threshold, ws_.surf_left, f.left, steer_deg);
+      frontend.detect(ws_.left_rect, threshold, ws_.surf_left, f.left);
     } catch (...) {
       // The job refers to `f` and the images: it must finish before they go out of scope.
       if (posted) {
@@ -125,7 +124,7 @@ class OdometryProcessor : public FrameProcessor {
       right_job_.wait();  // rethrows the worker's exception, if any
       ++parallel_frames_;
     } else {
-      frontend.detect(ws_.right_rect, threshold, ws_.surf_right, f.right, steer_deg);
+      frontend.detect(ws_.right_rect, threshold, ws_.surf_right, f.right);
     }
     f.times.features_ms = timer.lap_ms();
     frontend.matchStereo(f.left, f.right, ws_, f.stereo);
@@ -137,7 +136,6 @@ class OdometryProcessor : public FrameProcessor {
   struct RightInput {
     const StereoFrame* frame = nullptr;
     double threshold = 0;
-    float steer_deg = 0.f;
     features::Features* out = nullptr;
   };
 
@@ -147,7 +145,7 @@ class OdometryProcessor : public FrameProcessor {
   /// first) never outlives it. Captures only `this`: the processor is not movable.
   RecurringJob right_job_{[this] {
     odo_.frontend().rectifySide(1, *right_.frame, ws_);
-    odo_.frontend().detect(ws_.right_rect, right_.threshold, ws_.surf_right, *right_.out, right_.steer_deg);
+    odo_.frontend().detect(ws_.right_rect, right_.threshold, ws_.surf_right, *right_.out);
   }};
   /// The worker as the RANSAC's ParallelFor; declared before pool_ for the same reason.
   std::optional<PoolParallelFor> ransac_parallel_;

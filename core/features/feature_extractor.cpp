@@ -112,8 +112,7 @@ Features FeatureExtractor::extract(const cv::Mat& gray8, double threshold, SurfW
   return f;
 }
 
-void FeatureExtractor::extract(const cv::Mat& gray8, double threshold, SurfWorkspace& workspace, Features& f,
-                               float upright_angle_deg) const {
+void FeatureExtractor::extract(const cv::Mat& gray8, double threshold, SurfWorkspace& workspace, Features& f) const {
   if (!gray8.empty() && gray8.type() != CV_8UC1) {
     throw std::invalid_argument("FeatureExtractor: expected an 8-bit single-channel image, got type " +
                                 std::to_string(gray8.type()));
@@ -127,7 +126,7 @@ void FeatureExtractor::extract(const cv::Mat& gray8, double threshold, SurfWorks
   const int cap = params_.max_features;
   if (params_.type == DetectorType::kSurf) {
     // Into f's own buffers (kept from an earlier frame by the caller): no allocation.
-    surf_.detectAndCompute(gray8, threshold, f.keypoints, f.descriptors, workspace, upright_angle_deg);
+    surf_.detectAndCompute(gray8, threshold, f.keypoints, f.descriptors, workspace);
     return;
   }
   // OpenCV's detectors write into an output Mat of the right size even when another header

@@ -69,10 +69,8 @@ class FeatureExtractor {
   Features extract(const cv::Mat& gray8, double threshold, SurfWorkspace& workspace) const;
   /// The same into `out`, whose buffers are reused (give back an earlier frame's Features):
   /// with SURF, repeated calls on images of one size allocate nothing. Identical
-  /// keypoints and descriptors. `upright_angle_deg`: the steering angle of upright SURF
-  /// (Surf::detectAndCompute); the other detectors ignore it.
-  void extract(const cv::Mat& gray8, double threshold, SurfWorkspace& workspace, Features& out,
-               float upright_angle_deg = 0.f) const;
+  /// keypoints and descriptors.
+  void extract(const cv::Mat& gray8, double threshold, SurfWorkspace& workspace, Features& out) const;
 
  private:
   FeatureParams params_;

@@ -856,40 +856,40 @@ Surf::Surf(SurfParams params) : params_(params) {
 void Surf::detectAndCompute(const cv::Mat& gray8, double hessian_threshold,
                             std::vector<cv::KeyPoint>& keypoints, cv::Mat& descriptors) const {
   SurfWorkspace workspace;
-  run(gray8, hessian_threshold, keypoints, &descriptors, workspace, 0.f);
+  run(gray8, hessian_threshold, keypoints, &descriptors, workspace);
 }
 
 void Surf::detect(const cv::Mat& gray8, double hessian_threshold,
                   std::vector<cv::KeyPoint>& keypoints) const {
   SurfWorkspace workspace;
-  run(gray8, hessian_threshold, keypoints, nullptr, workspace, 0.f);
+  run(gray8, hessian_threshold, keypoints, nullptr, workspace);
 }
 
 void Surf::detectAndCompute(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
-                            cv::Mat& descriptors, SurfWorkspace& workspace, float upright_angle_deg) const {
-  run(gray8, hessian_threshold, keypoints, &descriptors, workspace, upright_angle_deg);
+                            cv::Mat& descriptors, SurfWorkspace& workspace) const {
+  run(gray8, hessian_threshold, keypoints, &descriptors, workspace);
 }
 
 void Surf::detect(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
                   SurfWorkspace& workspace) const {
-  run(gray8, hessian_threshold, keypoints, nullptr, workspace, 0.f);
+  run(gray8, hessian_threshold, keypoints, nullptr, workspace);
 }
 
 void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
-               cv::Mat* descriptors, SurfWorkspace& workspace, float upright_angle_deg) const {
+               cv::Mat* descriptors, SurfWorkspace& workspace) const {
 #if SEAVIO_SURF_AVX2
   if (use_avx2_) {
-    runAvx2(gray8, hessian_threshold, keypoints, descriptors, workspace, upright_angle_deg);
+    runAvx2(gray8, hessian_threshold, keypoints, descriptors, workspace);
     return;
   }
 #endif
-  runBaseline(gray8, hessian_threshold, keypoints, descriptors, workspace, upright_angle_deg);
+  runBaseline(gray8, hessian_threshold, keypoints, descriptors, workspace);
 }
 
 template <bool kAvx2>
 SEAVIO_SURF_INLINE void Surf::runWith(const cv::Mat& gray8, double hessian_threshold,
                                       std::vector<cv::KeyPoint>& keypoints, cv::Mat* descriptors,
-                                      SurfWorkspace& workspace, float upright_angle_deg) const {
+                                      SurfWorkspace& workspace) const {
   keypoints.clear();
   // One allocation up front instead of a dozen regrowths (a caller reusing its vector pays none).
   keypoints.reserve(1024);
@@ -1083,7 +1083,7 @@ SEAVIO_SURF_INLINE void Surf::runWith(const cv::Mat& gray8, double hessian_thres
   for (std::size_t k = 0; k < keypoints.size(); ++k) {
     cv::KeyPoint kp = keypoints[k];
     const float s = 1.2f * kp.size / 9.f;
-    float angle_deg = upright_angle_deg;
+    float angle_deg = 0.f;
     if (!params_.upright) {
       // Gradients at samples s apart within radius 6 s (Bay 2008, 4.1). Bay and OpenCV take 4 s
       // Haar wavelets at rounded positions; axis-aligned boxes do not turn with the image, which
@@ -1304,8 +1304,8 @@ SEAVIO_SURF_INLINE void Surf::runWith(const cv::Mat& gray8, double hessian_thres
 
 SEAVIO_SURF_NOINLINE void Surf::runBaseline(const cv::Mat& gray8, double hessian_threshold,
                                             std::vector<cv::KeyPoint>& keypoints, cv::Mat* descriptors,
-                                            SurfWorkspace& workspace, float upright_angle_deg) const {
-  runWith<false>(gray8, hessian_threshold, keypoints, descriptors, workspace, upright_angle_deg);
+                                            SurfWorkspace& workspace) const {
+  runWith<false>(gray8, hessian_threshold, keypoints, descriptors, workspace);
 }
 
 #if SEAVIO_SURF_AVX2
@@ -1316,9 +1316,8 @@ __attribute__((target("avx2"))) SEAVIO_SURF_NOINLINE void Surf::runAvx2(const cv
                                                                         double hessian_threshold,
                                                                         std::vector<cv::KeyPoint>& keypoints,
                                                                         cv::Mat* descriptors,
-                                                                        SurfWorkspace& workspace,
-                                                                        float upright_angle_deg) const {
-  runWith<true>(gray8, hessian_threshold, keypoints, descriptors, workspace, upright_angle_deg);
+                                                                        SurfWorkspace& workspace) const {
+  runWith<true>(gray8, hessian_threshold, keypoints, descriptors, workspace);
 }
 #endif
 

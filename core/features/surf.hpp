@@ -24,8 +24,7 @@ struct SurfParams {
   int first_octave = 0;            ///< finest octave searched (1 skips the 9-27 px filters, whose
                                    ///< features on lit sand ripples slide with the lights)
   bool extended = false;           ///< 128-element descriptor instead of 64
-  bool upright = false;            ///< U-SURF: no orientation, descriptor in image axes (or along
-                                   ///< the steering angle the caller passes)
+  bool upright = false;            ///< U-SURF: no orientation, descriptor in image axes
   int max_features = 0;            ///< 0 = no cap; else keep the strongest by det(H)
   bool avx2 = true;                ///< AVX2 box-filter kernels where the CPU has them
                                    ///< (bit-identical output; false keeps the SSE2 path)
@@ -89,27 +88,22 @@ class Surf {
   /// repeated calls allocate only their outputs. The overloads without a workspace make a
   /// fresh one per call: core keeps no hidden per-thread state; the per-frame path passes the
   /// workspace its owner keeps (odometry::FrontendWorkspace, one per image side).
-  /// `upright_angle_deg`: with params().upright, the orientation every keypoint gets instead of
-  /// 0 (degrees, clockwise in the image as `angle`). The odometry passes the direction of a
-  /// fixed world axis in the image, predicted by the gyro, so that a down-looking camera's
-  /// descriptors do not turn with the vehicle's heading yet need no per-keypoint orientation
-  /// (docs/features.md, steered U-SURF). Ignored without upright.
   void detectAndCompute(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
-                        cv::Mat& descriptors, SurfWorkspace& workspace, float upright_angle_deg = 0.f) const;
+                        cv::Mat& descriptors, SurfWorkspace& workspace) const;
   void detect(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
               SurfWorkspace& workspace) const;
 
  private:
   void run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
-           cv::Mat* descriptors, SurfWorkspace& workspace, float upright_angle_deg) const;
+           cv::Mat* descriptors, SurfWorkspace& workspace) const;
   /// run's body (runWith) compiled for the baseline instruction set and for AVX2 (x86-64).
   void runBaseline(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
-                   cv::Mat* descriptors, SurfWorkspace& workspace, float upright_angle_deg) const;
+                   cv::Mat* descriptors, SurfWorkspace& workspace) const;
   void runAvx2(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
-               cv::Mat* descriptors, SurfWorkspace& workspace, float upright_angle_deg) const;
+               cv::Mat* descriptors, SurfWorkspace& workspace) const;
   template <bool kAvx2>
   void runWith(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
-               cv::Mat* descriptors, SurfWorkspace& workspace, float upright_angle_deg) const;
+               cv::Mat* descriptors, SurfWorkspace& workspace) const;
 
   SurfParams params_;
   bool use_avx2_ = false;  ///< params_.avx2 and the CPU has AVX2

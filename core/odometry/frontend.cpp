@@ -421,8 +421,8 @@ features::Features Frontend::detect(const cv::Mat& rectified, double threshold, 
 }
 
 void Frontend::detect(const cv::Mat& rectified, double threshold, features::SurfWorkspace& surf,
-                      features::Features& out, float upright_angle_deg) const {
-  extractor_.extract(rectified, threshold, surf, out, upright_angle_deg);
+                      features::Features& out) const {
+  extractor_.extract(rectified, threshold, surf, out);
 }
 
 namespace {
@@ -464,7 +464,7 @@ void Frontend::matchStereo(const features::Features& left, const features::Featu
 }
 
 void Frontend::process(const StereoFrame& frame, double threshold, const NowNsFn& now, FrontendWorkspace& ws,
-                       FrameFeatures& f, float upright_angle_deg) const {
+                       FrameFeatures& f) const {
   f.t_ns = frame.t_ns;
   f.seq = frame.seq;
   f.detector_threshold = threshold;
@@ -472,8 +472,8 @@ void Frontend::process(const StereoFrame& frame, double threshold, const NowNsFn
   StageTimer timer(now);
   rectify(frame, ws);
   f.times.rectify_ms = timer.lap_ms();
-  detect(ws.left_rect, threshold, ws.surf_left, f.left, upright_angle_deg);
-  detect(ws.right_rect, threshold, ws.surf_right, f.right, upright_angle_deg);
+  detect(ws.left_rect, threshold, ws.surf_left, f.left);
+  detect(ws.right_rect, threshold, ws.surf_right, f.right);
   f.times.features_ms = timer.lap_ms();
   matchStereo(f.left, f.right, ws, f.stereo);
   f.times.stereo_ms = timer.lap_ms();

@@ -164,9 +164,8 @@ class Frontend {
   /// The same with SURF's buffers in `surf` (one per thread calling at once).
   features::Features detect(const cv::Mat& rectified, double threshold, features::SurfWorkspace& surf) const;
   /// The same into `out`, reusing its keypoint and descriptor buffers.
-  /// `upright_angle_deg`: upright SURF's steering angle (Odometry::descriptorSteeringDeg).
   void detect(const cv::Mat& rectified, double threshold, features::SurfWorkspace& surf,
-              features::Features& out, float upright_angle_deg = 0.f) const;
+              features::Features& out) const;
   /// Copies the workspace's rectified images into `f` (FrameFeatures::left_image, right_image),
   /// reusing `f`'s buffers.
   static void keepImages(const FrontendWorkspace& ws, FrameFeatures& f);
@@ -182,7 +181,7 @@ class Frontend {
   /// The same into `out` with the buffers of `ws` and `out` (give back a FrameFeatures of an
   /// earlier frame to reuse its allocations): identical results.
   void process(const StereoFrame& frame, double threshold, const NowNsFn& now, FrontendWorkspace& ws,
-               FrameFeatures& out, float upright_angle_deg = 0.f) const;
+               FrameFeatures& out) const;
 
  private:
   camera::StereoRectifier rectifier_;

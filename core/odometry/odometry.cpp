@@ -216,38 +216,9 @@ void Odometry::applyGlobalCorrection(const GlobalCorrection& c) {
   }
 }
 
-float Odometry::descriptorSteeringDeg(int64_t t_ns, std::span<const ImuSample> imu) const {
-  if (!params_.steer_upright_descriptors || !params_.features.surf.upright ||
-      params_.features.type != features::DetectorType::kSurf)
-    return 0.f;
-  Eigen::Matrix3d R_W_B = Eigen::Matrix3d::Identity();
-  if (initialised_) {
-    // Degrees matter here, not micro-radians: a rectangle rule over the samples since the
-    // last pose is enough (a pivot turn of 30 deg per frame is followed to a fraction of one).
-    R_W_B = state_.T_W_B.linear();
-    int64_t t_prev = state_.t_ns;
-    const auto turn = [&](const ImuSample& s) {
-      if (s.t_ns <= t_prev || s.t_ns > t_ns) return;
-      const double dt_s = 1e-9 * static_cast<double>(s.t_ns - t_prev);
-      R_W_B = R_W_B * se3::expSO3((s.gyro_rad_s - state_.gyro_bias_rad_s) * dt_s);
-      t_prev = s.t_ns;
-    };
-    for (const ImuSample& s : imu_buffer_) turn(s);
-    for (const ImuSample& s : imu) turn(s);
-  }
-  // W's x axis seen from the rectified left camera; both rectified cameras share its axes.
-  const Eigen::Vector3d x_R0 = (R_W_B * frontend_.rig().T_B_R0.linear()).transpose() * Eigen::Vector3d::UnitX();
-  // Looking along W's x axis (not a survey camera) there is no image direction to steer by.
-  if (std::hypot(x_R0.x(), x_R0.y()) < 0.1) return 0.f;
-  double deg = std::atan2(x_R0.y(), x_R0.x()) * 180.0 / M_PI;
-  if (deg < 0) deg += 360.0;
-  return deg >= 360.0 ? 0.f : static_cast<float>(deg);
-}
-
 OdometryResult Odometry::process(const StereoFrame& frame, std::span<const ImuSample> imu) {
   // Into the buffers of an earlier frame, which track() hands back (no allocation).
-  frontend_.process(frame, controller_.threshold(), now_, frontend_ws_, spare_frame_,
-                    descriptorSteeringDeg(frame.t_ns, imu));
+  frontend_.process(frame, controller_.threshold(), now_, frontend_ws_, spare_frame_);
   return track(std::move(spare_frame_), imu);
 }
 

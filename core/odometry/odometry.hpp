@@ -79,12 +79,6 @@ struct OdometryParams {
   /// gate; a refused frame coasts on it. Its noise model is the IMU's (ImuNoise).
   imu::ErrorStateParams inertial;
   bool use_rotation_prior = true;            ///< refine with the gyro rotation as a prior
-  /// With upright SURF (features.surf.upright): describe every keypoint along the direction of
-  /// the world's x axis in the image, the heading the gyro predicts for the frame, instead of
-  /// along the image axes. A down-looking camera turns with the vehicle about its optical
-  /// axis; steered, its descriptors match through any rate of turn, without the per-keypoint
-  /// orientation whose noise costs rotation-invariant SURF matches (docs/features.md).
-  bool steer_upright_descriptors = true;
   MotionRefinementParams refinement;
   /// Patch refinement of the RANSAC inliers before the four-view refinements: the reference
   /// left keypoint's patch is found again in the reference right image and both current
@@ -206,11 +200,6 @@ class Odometry {
   /// What to leave out from the next frame on (the daemon's overload ladder).
   void setLoadShedding(const LoadShedding& shed) { shed_ = shed; }
   const LoadShedding& loadShedding() const { return shed_; }
-  /// The steering angle for upright SURF of the frame at `t_ns` (degrees, clockwise in the
-  /// rectified image): the direction of W's x axis there, from the last pose turned by the
-  /// gyro samples up to `t_ns` (those kept and the new `imu`). 0 unless upright and steering
-  /// are configured; before the first frame the attitude is the initial one (yaw 0).
-  float descriptorSteeringDeg(int64_t t_ns, std::span<const ImuSample> imu) const;
   /// The inline global step's map (empty in deferred mode: the refiner elsewhere holds it).
   const map::FrameMap& frameMap() const { return refiner_.frameMap(); }
   const NavState& state() const { return state_; }

@@ -238,7 +238,6 @@ void visit(V& v, odometry::OdometryParams& p) {
   v.value("revisit_witness_window_s", p.revisit_witness_window_s, 0, 1e6);
   v.value("seed", p.seed, 0, 4294967295.0);
   v.flag("use_rotation_prior", p.use_rotation_prior);
-  v.flag("steer_upright_descriptors", p.steer_upright_descriptors);
   v.section("refinement", [&] {
     v.value("iterations", p.refinement.iterations, 0, 1000);
     v.value("pixel_sigma_px", p.refinement.pixel_sigma_px, 1e-3, 100);

@@ -74,14 +74,15 @@ simulate::SimConfig pivotTurns(uint32_t seed) {
 struct TurnRun {
   eval::TrajectoryMetrics metrics;
   int imu_only = 0;
-  int turn_frames = 0;      ///< frames turned by more than 15 deg since the previous one
-  int inliers_in_turns = 0; ///< their RANSAC inliers, summed
+  int turn_frames = 0;  ///< frames turned by more than 15 deg since the previous one
   /// Per turning frame, the error of its estimated step against the true one: rotation [rad]
   /// and translation [m].
   std::vector<double> turn_rotation_err, turn_translation_err;
 };
 
-TurnRun runTurns(const drivers::Dataset& ds, const odometry::OdometryParams& params) {
+TurnRun runTurns(const drivers::Dataset& ds, odometry::Prediction prediction) {
+  odometry::OdometryParams params;
+  params.prediction = prediction;
   const tools::SequenceRun run = tools::runSequence(ds, params);
   TurnRun out;
   std::vector<eval::TimedPose> gt;
@@ -96,18 +97,11 @@ TurnRun runTurns(const drivers::Dataset& ds, const odometry::OdometryParams& par
                             true_curr = testing_support::truthAt(ds, r.t_ns);
     if (Eigen::AngleAxisd((true_prev.inverse() * true_curr).linear()).angle() < 15.0 * M_PI / 180.0) continue;
     ++out.turn_frames;
-    out.inliers_in_turns += r.quality.ransac_inliers;
     const testing_support::StepError e = testing_support::stepError(prev.T_W_B, r.T_W_B, true_prev, true_curr);
     out.turn_rotation_err.push_back(e.rotation_rad);
     out.turn_translation_err.push_back(e.translation_m);
   }
   return out;
-}
-
-TurnRun runTurns(const drivers::Dataset& ds, odometry::Prediction prediction) {
-  odometry::OdometryParams params;
-  params.prediction = prediction;
-  return runTurns(ds, params);
 }
 
 TEST(TurnPrediction, ImuPredictionTracksPivotTurnsFarBetterThanConstantVelocity) {
@@ -142,38 +136,6 @@ TEST(TurnPrediction, ImuPredictionTracksPivotTurnsFarBetterThanConstantVelocity)
   // steps come close to the IMU's; the rotation, which the gyro measures, keeps the IMU's gain.
   EXPECT_LT(rot_imu, 0.75 * rot_cv);
   EXPECT_LT(tr_imu, tr_cv);
-}
-
-TEST(TurnPrediction, SteeredUprightSurfKeepsMoreInliersThroughPivotTurns) {
-  // GIVEN a tuning seed with two pivot turns at the paper's rate of turn, ~29 deg per frame
-  const std::string dir = scratchDir("43");
-  simulate::writeSequence(pivotTurns(43), dir, true);
-  const drivers::Dataset ds = drivers::loadEuroc(dir);
-  // WHEN the local odometry runs with upright SURF, steered by the gyro-predicted heading and not
-  odometry::OdometryParams steered;
-  steered.features.surf.upright = true;
-  // What the descriptors match, so without the guided tracks: those find the points the
-  // unsteered descriptors lose again once RANSAC has the motion from the rest (measured with
-  // them: 2042 steered against 2314 unsteered inliers over the 9 turning frames).
-  steered.guided_tracks.enabled = false;
-  odometry::OdometryParams unsteered = steered;
-  unsteered.steer_upright_descriptors = false;
-  const TurnRun st = runTurns(ds, steered);
-  const TurnRun un = runTurns(ds, unsteered);
-  std::cout << "[ turns    ] upright, steered: " << st.imu_only << " IMU-only frames, " << st.inliers_in_turns
-            << " RANSAC inliers over " << st.turn_frames << " turning frames, mean error " << st.metrics.mean_error_m
-            << " m over " << st.metrics.distance_m << " m\n"
-            << "[ turns    ] upright, unsteered: " << un.imu_only << " IMU-only frames, " << un.inliers_in_turns
-            << " RANSAC inliers over " << un.turn_frames << " turning frames, mean error " << un.metrics.mean_error_m
-            << " m\n";
-  // THEN steered descriptors track every frame through the turns, and keep more than twice
-  // the inliers of image-axis upright descriptors, turned by ~29 deg between frames there
-  // (measured: 1148 against 464 over 9 turning frames; the IMU-pruned windows still save the
-  // unsteered ones from losing frames)
-  EXPECT_EQ(st.imu_only, 0);
-  EXPECT_LT(st.metrics.mean_error_pct, 0.2);
-  EXPECT_GT(st.turn_frames, 4);
-  EXPECT_GT(st.inliers_in_turns, 2 * un.inliers_in_turns);
 }
 
 }  // namespace
