@@ -42,6 +42,9 @@ void printMetrics(std::ostream& os, const eval::TrajectoryMetrics& m) {
      << fmt("%.3f", m.mean_vertical_error_m) << " m; heading error mean " << fmt("%.2f", m.mean_heading_error_deg)
      << " deg, max " << fmt("%.2f", m.max_heading_error_deg) << " deg; tilt error mean "
      << fmt("%.2f", m.mean_tilt_error_deg) << " deg, max " << fmt("%.2f", m.max_tilt_error_deg) << " deg\n";
+  os << "  gravity tilt error (roll and pitch as published, no alignment; IMU runs) mean "
+     << fmt("%.2f", m.mean_gravity_tilt_error_deg) << " deg, max " << fmt("%.2f", m.max_gravity_tilt_error_deg)
+     << " deg\n";
   if (m.heading_steps > 0)
     os << "  heading error step on straight stretches: " << fmt("%.1f", 1e6 * m.heading_step_rms_rad)
        << " urad rms (median " << fmt("%.1f", 1e6 * m.heading_step_median_rad) << ", p90 "
@@ -70,7 +73,8 @@ void writeMetricsJson(const std::string& path, const eval::TrajectoryMetrics& m)
       {"final_error_pct", m.final_error_pct}, {"mean_horizontal_error_m", m.mean_horizontal_error_m},
       {"mean_vertical_error_m", m.mean_vertical_error_m}, {"mean_heading_error_deg", m.mean_heading_error_deg},
       {"max_heading_error_deg", m.max_heading_error_deg}, {"mean_tilt_error_deg", m.mean_tilt_error_deg},
-      {"max_tilt_error_deg", m.max_tilt_error_deg},         {"ate_rmse_m", m.ate_rmse_m},
+      {"max_tilt_error_deg", m.max_tilt_error_deg},         {"mean_gravity_tilt_error_deg", m.mean_gravity_tilt_error_deg},
+      {"max_gravity_tilt_error_deg", m.max_gravity_tilt_error_deg}, {"ate_rmse_m", m.ate_rmse_m},
       {"rpe_trans_pct", m.rpe_trans_pct},   {"rpe_rot_deg_per_m", m.rpe_rot_deg_per_m},
       {"heading_step_rms_rad", m.heading_step_rms_rad}, {"heading_step_median_rad", m.heading_step_median_rad},
       {"heading_step_p90_rad", m.heading_step_p90_rad}};

@@ -119,7 +119,7 @@ TrajectoryMetrics evaluateTrajectory(const std::vector<TimedPose>& gt, const std
   // Paper Table I: align on the first pose only, so the error is the drift accumulated
   // from the start.
   const Eigen::Isometry3d T_align = G[0] * E[0].inverse();
-  double sum = 0, sum2 = 0, dist = 0, sum_h = 0, sum_v = 0, sum_yaw = 0, sum_tilt = 0, sum_step2 = 0;
+  double sum = 0, sum2 = 0, dist = 0, sum_h = 0, sum_v = 0, sum_yaw = 0, sum_tilt = 0, sum_step2 = 0, sum_gravity_tilt = 0;
   std::vector<double> step_sizes;
   // Turn about W's z of a rotation (R_est R_gt^T, or one truth step): the angle of its action
   // on the horizontal plane (atan2 of the antisymmetric over the symmetric part), exact for a
@@ -148,6 +148,12 @@ TrajectoryMetrics evaluateTrajectory(const std::vector<TimedPose>& gt, const std
     // stays accurate at small angles, where acos of the dot product would not.
     const Eigen::Vector3d up = R_err.col(2);
     const double tilt_deg = std::atan2(up.head<2>().norm(), up.z()) * 180.0 / std::numbers::pi;
+    // Gravity tilt: the body's up as each attitude states it, compared without alignment.
+    const Eigen::Vector3d up_est_B = E[i].linear().row(2).transpose(), up_gt_B = G[i].linear().row(2).transpose();
+    const double gravity_tilt_deg =
+        std::atan2(up_est_B.cross(up_gt_B).norm(), up_est_B.dot(up_gt_B)) * 180.0 / std::numbers::pi;
+    sum_gravity_tilt += gravity_tilt_deg;
+    m.max_gravity_tilt_error_deg = std::max(m.max_gravity_tilt_error_deg, gravity_tilt_deg);
     m.distance_along_m.push_back(dist);
     m.error_m.push_back(err);
     m.heading_error_deg.push_back(yaw_deg);
@@ -169,6 +175,7 @@ TrajectoryMetrics evaluateTrajectory(const std::vector<TimedPose>& gt, const std
   m.mean_vertical_error_m = sum_v / double(n);
   m.mean_heading_error_deg = sum_yaw / double(n);
   m.mean_tilt_error_deg = sum_tilt / double(n);
+  m.mean_gravity_tilt_error_deg = sum_gravity_tilt / double(n);
   if (m.heading_steps > 0) {
     m.heading_step_rms_rad = std::sqrt(sum_step2 / m.heading_steps);
     const auto rank = [&](double q) {

@@ -68,6 +68,14 @@ struct TrajectoryMetrics {
   /// false acceleration into the IMU prediction.
   double mean_tilt_error_deg = 0;
   double max_tilt_error_deg = 0;
+  /// Gravity tilt error: the same angle with no alignment at all, between the vertical the
+  /// estimate's attitude claims and the truth's (both worlds z-up along gravity) [deg]. What
+  /// a vehicle's controller sees in the published roll and pitch, and what the first-pose
+  /// alignment hides: a start judged level while accelerating tilts the whole trajectory,
+  /// and each metre flown then gains tilt metres of depth error. Meaningful only for an
+  /// estimate whose world is levelled on gravity (an IMU run; not a camera-only one).
+  double mean_gravity_tilt_error_deg = 0;
+  double max_gravity_tilt_error_deg = 0;
   /// The heading error's change from one pose to the next on straight stretches (the truth
   /// turning slower than EvalParams::straight_max_turn_rate_rad_s), rms [rad]: the per-frame
   /// heading noise that a chain's heading random-walks with (times the square root of the
