@@ -44,7 +44,8 @@ void printMetrics(std::ostream& os, const eval::TrajectoryMetrics& m) {
      << fmt("%.2f", m.mean_tilt_error_deg) << " deg, max " << fmt("%.2f", m.max_tilt_error_deg) << " deg\n";
   os << "  gravity tilt error (roll and pitch as published, no alignment; IMU runs) mean "
      << fmt("%.2f", m.mean_gravity_tilt_error_deg) << " deg, max " << fmt("%.2f", m.max_gravity_tilt_error_deg)
-     << " deg\n";
+     << " deg; position error with the first position and heading aligned (IMU runs): mean "
+     << fmt("%.2f", m.mean_gravity_error_pct) << " %, final " << fmt("%.2f", m.final_gravity_error_pct) << " %\n";
   if (m.heading_steps > 0)
     os << "  heading error step on straight stretches: " << fmt("%.1f", 1e6 * m.heading_step_rms_rad)
        << " urad rms (median " << fmt("%.1f", 1e6 * m.heading_step_median_rad) << ", p90 "
@@ -74,7 +75,8 @@ void writeMetricsJson(const std::string& path, const eval::TrajectoryMetrics& m)
       {"mean_vertical_error_m", m.mean_vertical_error_m}, {"mean_heading_error_deg", m.mean_heading_error_deg},
       {"max_heading_error_deg", m.max_heading_error_deg}, {"mean_tilt_error_deg", m.mean_tilt_error_deg},
       {"max_tilt_error_deg", m.max_tilt_error_deg},         {"mean_gravity_tilt_error_deg", m.mean_gravity_tilt_error_deg},
-      {"max_gravity_tilt_error_deg", m.max_gravity_tilt_error_deg}, {"ate_rmse_m", m.ate_rmse_m},
+      {"max_gravity_tilt_error_deg", m.max_gravity_tilt_error_deg}, {"mean_gravity_error_pct", m.mean_gravity_error_pct},
+      {"final_gravity_error_pct", m.final_gravity_error_pct}, {"ate_rmse_m", m.ate_rmse_m},
       {"rpe_trans_pct", m.rpe_trans_pct},   {"rpe_rot_deg_per_m", m.rpe_rot_deg_per_m},
       {"heading_step_rms_rad", m.heading_step_rms_rad}, {"heading_step_median_rad", m.heading_step_median_rad},
       {"heading_step_p90_rad", m.heading_step_p90_rad}};

@@ -95,6 +95,8 @@ RunFigures figuresOf(const drivers::Dataset& ds, const SequenceRun& run) {
   f.max_tilt_error_deg = m.max_tilt_error_deg;
   f.mean_gravity_tilt_error_deg = m.mean_gravity_tilt_error_deg;
   f.max_gravity_tilt_error_deg = m.max_gravity_tilt_error_deg;
+  f.mean_gravity_error_pct = m.mean_gravity_error_pct;
+  f.final_gravity_error_pct = m.final_gravity_error_pct;
   f.mean_heading_error_deg = m.mean_heading_error_deg;
   f.max_heading_error_deg = m.max_heading_error_deg;
   f.incomplete = m.incomplete;
@@ -271,15 +273,15 @@ std::vector<ValidationRow> runValidation(const ValidationOptions& o) {
 }
 
 void printValidationTable(std::ostream& os, const std::vector<ValidationRow>& rows) {
-  os << fmt::format("{:<44}{:<7}{:>6}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}{:>7}{:>7}{:>6}{:>6}{:>8} {}\n", "sequence",
-                    "mode", "frames", "dist[m]", "mean%", "final%", "tilt", "tiltmx", "gtilt", "head", "headmx", "coast",
-                    "cv-co", "b3s", "nees", "neesmd", "ratio mean/final");
+  os << fmt::format("{:<44}{:<7}{:>6}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}{:>8}{:>7}{:>7}{:>6}{:>6}{:>8} {}\n",
+                    "sequence", "mode", "frames", "dist[m]", "mean%", "final%", "gmean%", "tilt", "tiltmx", "gtilt", "head",
+                    "headmx", "coast", "cv-co", "b3s", "nees", "neesmd", "ratio mean/final");
   for (const auto& r : rows) {
     const RunFigures& f = r.imu;
-    os << fmt::format("{:<44}{:<7}{:>6}{:>8.1f}{:>8.3f}{:>8.3f}{:>8.2f}{:>8.2f}{:>8.2f}{:>8.2f}{:>8.2f}{:>7}{:>7}{:>6}{:>6}{:>8} "
-                      "{}/{}{}\n",
+    os << fmt::format("{:<44}{:<7}{:>6}{:>8.1f}{:>8.3f}{:>8.3f}{:>8.3f}{:>8.2f}{:>8.2f}{:>8.2f}{:>8.2f}{:>8.2f}{:>7}{:>7}{:>6}"
+                      "{:>6}{:>8} {}/{}{}\n",
                       r.sequence.name, r.mode, f.frames, f.distance_m, f.mean_error_pct, f.final_error_pct,
-                      f.mean_tilt_error_deg, f.max_tilt_error_deg, f.mean_gravity_tilt_error_deg,
+                      f.mean_gravity_error_pct, f.mean_tilt_error_deg, f.max_tilt_error_deg, f.mean_gravity_tilt_error_deg,
                       f.mean_heading_error_deg, f.max_heading_error_deg,
                       f.imu_only_frames, r.no_imu.imu_only_frames, validation_suite::biasColumn(f),
                       validation_suite::neesColumn(f, f.nees_in_band_fraction),
@@ -288,8 +290,10 @@ void printValidationTable(std::ostream& os, const std::vector<ValidationRow>& ro
                       validation_suite::ratio(f.final_error_pct, r.no_imu.final_error_pct),
                       f.incomplete || r.no_imu.incomplete ? "  INCOMPLETE" : "");
   }
-  os << "(tilt, head: mean and max tilt / heading error [deg], first pose aligned; gtilt: mean tilt of the published\n"
-        " roll and pitch against gravity, no alignment [deg]; coast: frames coasting on the IMU; cv-co: the same\n"
+  os << "(mean%, final%: first pose aligned (paper Table I); gmean%: mean with only the first position and heading\n"
+        " aligned, roll and pitch as published (what a vehicle's depth and attitude see); tilt, head: mean and max\n"
+        " tilt / heading error [deg], first pose aligned; gtilt: mean tilt of the published roll and pitch against\n"
+        " gravity [deg]; coast: frames coasting on the IMU; cv-co: the same\n"
         " with prediction: constant_velocity (vision lost, it coasts on constant velocity); b3s: fraction of frames from\n"
         " 30 s on with all six biases within 3 sigma of the truth (-: shorter, or biases unknown); nees: fraction of\n"
         " visual increments whose 6-dof NEES is in the 95 % chi-square band [1.237, 14.449]; neesmd: its median\n"
@@ -340,12 +344,14 @@ void writeValidationJson(const std::string& path, const std::vector<ValidationRo
         "{{\"frames\": {}, \"imu_only_frames\": {}, \"distance_m\": {}, \"mean_error_pct\": {}, "
         "\"final_error_pct\": {}, \"mean_tilt_error_deg\": {}, \"max_tilt_error_deg\": {}, "
         "\"mean_gravity_tilt_error_deg\": {}, \"max_gravity_tilt_error_deg\": {}, "
+        "\"mean_gravity_error_pct\": {}, \"final_gravity_error_pct\": {}, "
         "\"mean_heading_error_deg\": {}, \"max_heading_error_deg\": {}, \"incomplete\": {}, "
         "\"bias_within_3sigma_fraction\": {}, \"nees_frames\": {}, \"nees_in_band_fraction\": {}, "
         "\"nees_median\": {}, \"nees_rotation_median\": {}, \"nees_translation_median\": {}, \"error_pct\": [",
         f.frames, f.imu_only_frames, num(f.distance_m), num(f.mean_error_pct), num(f.final_error_pct),
         num(f.mean_tilt_error_deg), num(f.max_tilt_error_deg), num(f.mean_gravity_tilt_error_deg),
-        num(f.max_gravity_tilt_error_deg), num(f.mean_heading_error_deg),
+        num(f.max_gravity_tilt_error_deg), num(f.mean_gravity_error_pct), num(f.final_gravity_error_pct),
+        num(f.mean_heading_error_deg),
         num(f.max_heading_error_deg), f.incomplete ? "true" : "false",
         f.bias_known ? num(f.bias_within_3sigma_fraction) : std::string("null"), f.nees_frames,
         num(f.nees_in_band_fraction), num(f.nees_median), num(f.nees_rotation_median),

@@ -42,6 +42,8 @@ struct RunFigures {
   double mean_tilt_error_deg = 0, max_tilt_error_deg = 0;
   /// Roll and pitch as published, against gravity, no alignment (eval::TrajectoryMetrics).
   double mean_gravity_tilt_error_deg = 0, max_gravity_tilt_error_deg = 0;
+  /// Mean / final % of distance with only the first position and heading aligned.
+  double mean_gravity_error_pct = 0, final_gravity_error_pct = 0;
   double mean_heading_error_deg = 0, max_heading_error_deg = 0;
   bool incomplete = true;
   /// Whether the claimed uncertainty fits (core/eval/consistency.hpp). b3s: the fraction of

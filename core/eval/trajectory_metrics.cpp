@@ -194,6 +194,21 @@ TrajectoryMetrics evaluateTrajectory(const std::vector<TimedPose>& gt, const std
     m.final_error_pct = 100.0 * m.final_error_m / dist;
   }
 
+  // Gravity-referenced: the first position and heading aligned, roll and pitch as published.
+  const Eigen::Matrix3d R_heading =
+      Eigen::AngleAxisd(turnAboutZ(G[0].linear() * E[0].linear().transpose()), Eigen::Vector3d::UnitZ())
+          .toRotationMatrix();
+  double sum_gravity = 0, last_gravity = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3d e = G[0].translation() + R_heading * (E[i].translation() - E[0].translation());
+    last_gravity = (e - G[i].translation()).norm();
+    sum_gravity += last_gravity;
+  }
+  if (dist > 0) {
+    m.mean_gravity_error_pct = 100.0 * sum_gravity / double(n) / dist;
+    m.final_gravity_error_pct = 100.0 * last_gravity / dist;
+  }
+
   std::vector<Eigen::Vector3d> est_pos(n);
   for (std::size_t i = 0; i < n; ++i) est_pos[i] = E[i].translation();
   const Eigen::Isometry3d T_u = n >= 3 ? alignUmeyama(est_pos, m.gt_position) : T_align;

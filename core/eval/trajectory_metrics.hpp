@@ -76,6 +76,11 @@ struct TrajectoryMetrics {
   /// estimate whose world is levelled on gravity (an IMU run; not a camera-only one).
   double mean_gravity_tilt_error_deg = 0;
   double max_gravity_tilt_error_deg = 0;
+  /// Position error with only the first position and heading aligned (roll and pitch kept as
+  /// published: the four directions a gravity-referenced estimate cannot know), % of distance:
+  /// what the first-pose figures become when the start's attitude is part of the answer.
+  double mean_gravity_error_pct = 0;
+  double final_gravity_error_pct = 0;
   /// The heading error's change from one pose to the next on straight stretches (the truth
   /// turning slower than EvalParams::straight_max_turn_rate_rad_s), rms [rad]: the per-frame
   /// heading noise that a chain's heading random-walks with (times the square root of the

@@ -38,14 +38,14 @@ TEST(TrajectoryMetrics, PerfectEstimateInAnotherWorldFrameHasZeroError) {
 }
 
 TEST(TrajectoryMetrics, GravityTiltIsWhatTheFirstPoseAlignmentHides) {
-  // GIVEN an estimate whose world is tilted 2 deg about x (a start levelled on a specific force
+  // GIVEN an estimate whose world is tilted 2 deg about y (a start levelled on a specific force
   // that held an acceleration), exact otherwise, and a truth turning about z
   auto gt = line(10.0);
   for (std::size_t i = 0; i < gt.size(); ++i)
     gt[i].T_W_B.linear() = Eigen::AngleAxisd(0.05 * double(i), Eigen::Vector3d::UnitZ()).toRotationMatrix();
   const double tilt_rad = 2.0 * M_PI / 180.0;
   Eigen::Isometry3d T_tilted = Eigen::Isometry3d::Identity();
-  T_tilted.linear() = Eigen::AngleAxisd(tilt_rad, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  T_tilted.linear() = Eigen::AngleAxisd(tilt_rad, Eigen::Vector3d::UnitY()).toRotationMatrix();
   auto est = gt;
   for (auto& p : est) p.T_W_B = T_tilted * p.T_W_B;
   const TrajectoryMetrics m = evaluateTrajectory(gt, est);
@@ -54,11 +54,17 @@ TEST(TrajectoryMetrics, GravityTiltIsWhatTheFirstPoseAlignmentHides) {
   EXPECT_NEAR(m.max_error_m, 0.0, 1e-9);
   EXPECT_NEAR(m.mean_gravity_tilt_error_deg, 2.0, 1e-9);
   EXPECT_NEAR(m.max_gravity_tilt_error_deg, 2.0, 1e-9);
+  // AND its positions, aligned on the first position and heading only, leave the truth by the
+  // chord of the 2 deg tilt for each metre flown along the line
+  EXPECT_NEAR(m.final_gravity_error_pct, 100.0 * 2.0 * std::sin(0.5 * tilt_rad), 1e-6);
+  EXPECT_NEAR(m.mean_gravity_error_pct, 0.5 * m.final_gravity_error_pct, 1e-6);
   // AND an estimate in a world only turned about z (a heading offset) has no gravity tilt
   Eigen::Isometry3d T_turned = Eigen::Isometry3d::Identity();
   T_turned.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   for (std::size_t i = 0; i < est.size(); ++i) est[i].T_W_B = T_turned * gt[i].T_W_B;
-  EXPECT_NEAR(evaluateTrajectory(gt, est).max_gravity_tilt_error_deg, 0.0, 1e-9);
+  const TrajectoryMetrics turned = evaluateTrajectory(gt, est);
+  EXPECT_NEAR(turned.max_gravity_tilt_error_deg, 0.0, 1e-9);
+  EXPECT_NEAR(turned.final_gravity_error_pct, 0.0, 1e-9);
 }
 
 TEST(TrajectoryMetrics, TenPercentScaleDriftMatchesHandComputedFigures) {
