@@ -195,7 +195,7 @@ const RegisterCommand kRegister{"simulate", [](CLI::App& app) {
                   "floor distance in 'altitude' stretches [m] (default 15)");
   cmd->add_option("--condition", opts->conditions,
                   "NAME[,NAME...], repeatable: rest | moving | consumer-imu | waves | misaligned | time-offset | "
-                  "hover | exposure | sea (applied last, in order; docs/simulator.md)")
+                  "hover | exposure | sea | operations (applied last, in order; docs/simulator.md)")
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   cmd->add_option("--side-overlap", opts->side_overlap,
                   "side overlap of neighbouring lanes' footprints, 0.2-0.6: sets the lane spacing");
