@@ -704,7 +704,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   // (rel_cov, also when ICP placed the frame) only on a visual frame whose reference reaches the
   // previous frame through measured poses, and that no map correction moved since either was
   // published.
-  // Against a keyframe the previous frame was also placed from, their shared error cancels
+  // The refined motion's claim takes the pixel noise its residuals show (work_.sensitivity);
+  // against a keyframe the previous frame was also placed from, their shared error cancels
   // (increment_covariance.hpp).
   const bool published_visual = r.source == PoseSource::kVision && !map_delta_W;
   if (published_visual && reference_measured && !moved_since_published_) {
