@@ -108,10 +108,11 @@ struct OdometryResult {
   Eigen::Vector3d accel_bias_sigma_m_s2 = Eigen::Vector3d::Zero();
   /// The covariance the estimate claims for the published pose's increment since the previous
   /// frame, T_W_B(prev)^-1 T_W_B: the visual motion's (the prior-refined one the pose is
-  /// chained from), in the filter's RelativeMotion convention: rotation as a right perturbation
-  /// in the current body [rad], translation in the previous body [m]. Tracked against a keyframe
-  /// older than the previous frame, it is the whole keyframe motion's covariance (the part the
-  /// two frames share is not taken out). Zero when the increment is not a visual one: the first
+  /// chained from, with the pixel noise its residuals show), in the filter's RelativeMotion
+  /// convention: rotation as a right perturbation in the current body [rad], translation in the
+  /// previous body [m]. Tracked against a keyframe the previous frame was also placed from, the
+  /// error the two frames share (the keyframe's pixels, the gyro prior since the keyframe) is
+  /// taken out (increment_covariance.hpp). Zero when the increment is not a visual one: the first
   /// frame, a coasted frame, a frame tracked against a keyframe across a coasted one, and a frame
   /// the global map moved.
   Eigen::Matrix<double, 6, 6> increment_covariance = Eigen::Matrix<double, 6, 6>::Zero();

@@ -37,6 +37,7 @@ int trackUnmatched(const matching::StereoFeatures& ref, const cv::Mat& ref_left,
     const auto rc = matching::alignPatch(tmpl, curr_right, uv_r.cast<float>(), A, patch);
     if (!rc.ok) continue;
     quads.push_back(geometry::QuadMatch{a.uv_left, uv_right, lc.uv, rc.uv});
+    used[i] = 2;
     ++added;
   }
   return added;

@@ -36,8 +36,9 @@ struct GuidedTrackParams {
 /// frame) for every point of `ref` not in `matched` (TemporalMatch::prev indices) whose
 /// patch aligns in all three other images. T_ref_curr maps current R0 points into the
 /// reference R0; `cache` (may be null) keeps the reference-right alignments across frames
-/// tracked against one keyframe; `used` is scratch (one flag per reference point). Returns how
-/// many it added.
+/// tracked against one keyframe; `used` ends with one flag per reference point: 1 matched, 2 a
+/// track added (in the order of the new entries of `quads`), 0 neither. Returns how many it
+/// added.
 int trackUnmatched(const matching::StereoFeatures& ref, const cv::Mat& ref_left, const cv::Mat& ref_right,
                    const cv::Mat& curr_left, const cv::Mat& curr_right, const camera::RectifiedRig& rig,
                    const Eigen::Isometry3d& T_ref_curr, std::span<const matching::TemporalMatch> matched,

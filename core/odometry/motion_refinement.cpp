@@ -1,5 +1,6 @@
 #include "core/odometry/motion_refinement.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -66,7 +67,7 @@ MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<c
 MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<const geometry::QuadMatch> matches,
                                     std::span<const uint32_t> inliers, const Eigen::Isometry3d& T_prev_curr_init,
                                     const RotationPrior& prior, const MotionRefinementParams& params,
-                                    MotionRefinementWorkspace& ws) {
+                                    MotionRefinementWorkspace& ws, ReferenceSensitivity* sensitivity) {
   MotionRefinementResult out;
   out.T_prev_curr = T_prev_curr_init;
   std::vector<Obs>& obs = ws.obs;
@@ -76,6 +77,7 @@ MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<c
     if (i >= matches.size()) continue;
     const auto& m = matches[i];
     Obs o;
+    o.match = i;
     Eigen::Vector3d Y;
     if (!triangulate(rig, m.left_prev, m.right_prev, o.X) || !triangulate(rig, m.left_curr, m.right_curr, Y))
       continue;
@@ -149,9 +151,11 @@ MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<c
   std::vector<Eigen::Matrix3d>& Hll_inv = ws.Hll_inv;
   std::vector<Eigen::Matrix<double, 6, 3>>& Hpl = ws.Hpl;
   std::vector<Eigen::Vector3d>& gl = ws.gl;
+  std::vector<Eigen::Matrix<double, 6, 4>>& Gref = ws.Gref;
   resizeWithHeadroom(Hll_inv, obs.size());
   resizeWithHeadroom(Hpl, obs.size());
   resizeWithHeadroom(gl, obs.size());
+  if (sensitivity) resizeWithHeadroom(Gref, obs.size());
   // Left perturbation T = exp(d) T, d = (rotation, translation) in the previous camera:
   // p = T^-1 exp(-d) X gives dp/d(rot) = R^T [X]x, dp/d(trans) = -R^T, dp/dX = R^T.
   auto buildSystem = [&](double damping) {
@@ -187,6 +191,10 @@ MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<c
       Hll_inv[j] = Hll.inverse();
       Hpl[j] = hpl;
       gl[j] = Jl.transpose() * wr;
+      // The reduced gradient's dependence on the reference pixels (rows 0-3): only through the
+      // point, whose Jp rows there are zero.
+      if (sensitivity)
+        Gref[j] = hpl * Hll_inv[j] * Jl.topRows<4>().transpose() * w.head<4>().asDiagonal();
       S += Hpp - hpl * Hll_inv[j] * hpl.transpose();
       g += Jp.transpose() * wr - hpl * Hll_inv[j] * gl[j];
     }
@@ -231,6 +239,41 @@ MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<c
   out.T_prev_curr = T;
   out.rms_px = std::sqrt(sq_sum / static_cast<double>(8 * obs.size()));
   out.covariance = 0.5 * (cov + cov.transpose());
+  if (sensitivity) {
+    // The pixels' variance from the residuals: 8 per point less the point's 3 and the
+    // motion's 6 degrees of freedom, Huber-weighted as the fit weighs them. Floored so that
+    // noise-free input keeps a positive-definite claim.
+    const Eigen::Isometry3d Tinv = T.inverse();
+    double weighted_sq = 0;
+    Vector8d r;
+    for (std::size_t j = 0; j < obs.size(); ++j)
+      if (residual(Tinv, obs[j], points[j], r))
+        for (int q = 0; q < 8; ++q) weighted_sq += huberWeight(r[q], k) * r[q] * r[q];
+    const double dof = 5.0 * static_cast<double>(obs.size()) - 6.0;
+    const double f = std::max(weighted_sq / dof / (params.pixel_sigma_px * params.pixel_sigma_px), 1e-4);
+    // The fit weighs pixels and prior by the model, so its motion errs by the sandwich
+    // S^-1 Cov(g) S^-1, the gradient's pixel part f times the model's, the prior's as it was.
+    Matrix6d S_prior = Matrix6d::Zero();
+    if (prior.valid) S_prior.topLeftCorner<3, 3>() = T.rotation() * prior_info * T.rotation().transpose();
+    const Matrix6d C = cov * (f * (S - S_prior) + S_prior) * cov;
+    sensitivity->variance_factor = f;
+    sensitivity->covariance = 0.5 * (C + C.transpose());
+    // d = -S^-1 g: a reference pixel error du (sigma sqrt(f)) moves the motion by S^-1 Gref du,
+    // a prior error e (its residual's) by S^-1 [R prior_info e; 0].
+    sensitivity->match.resize(obs.size());
+    sensitivity->gain.resize(obs.size());
+    for (std::size_t j = 0; j < obs.size(); ++j) {
+      sensitivity->match[j] = obs[j].match;
+      sensitivity->gain[j] = cov * Gref[j] * (params.pixel_sigma_px * std::sqrt(f));
+    }
+    sensitivity->prior_gain.setZero();
+    sensitivity->prior_covariance.setZero();
+    if (prior.valid) {
+      sensitivity->prior_gain = cov.leftCols<3>() * T.rotation() * prior_info;
+      sensitivity->prior_covariance = prior_info.inverse();
+    }
+    if (!C.allFinite()) sensitivity->covariance = out.covariance;
+  }
   return out;
 }
 

@@ -36,6 +36,26 @@ struct MotionRefinementResult {
   double rms_px = 0;
 };
 
+/// How the refined motion moves, to first order, with the noise of what a second motion against
+/// the same reference shares with it: the reference pair's pixels and the rotation prior (the
+/// gyro since the reference). Two frames tracked against one keyframe share those errors, and
+/// their increment sheds them (increment_covariance.hpp).
+/// All of it with the pixel noise the residuals show (the a posteriori variance of unit weight,
+/// `variance_factor` times the model's pixel_sigma_px squared) rather than the model's: patch
+/// alignment localises a point in the other three images relative to its reference-left
+/// template, so its pixels err far less, and less independently, than the detector's sigma.
+struct ReferenceSensitivity {
+  double variance_factor = 1;  ///< weighted residual square sum / its degrees of freedom / sigma^2
+  /// The motion's covariance under that noise (the result's `covariance` keeps the model's).
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
+  std::vector<uint32_t> match;  ///< the index into `matches` of each entry of `gain`
+  /// d(motion) / d(reference left u, v, right u, v), times the pixel sigma: the motion's
+  /// covariance from one match's reference pixels is gain * gain^T.
+  std::vector<Eigen::Matrix<double, 6, 4>> gain;
+  Eigen::Matrix<double, 6, 3> prior_gain = Eigen::Matrix<double, 6, 3>::Zero();  ///< d(motion) / d(prior error)
+  Eigen::Matrix3d prior_covariance = Eigen::Matrix3d::Zero();  ///< the prior's, as weighted (with its floor)
+};
+
 /// Levenberg-Marquardt on T_prev_curr over the `inliers` of `matches`: four-view bundle
 /// adjustment (each point, triangulated in the previous pair, refined with the motion and
 /// reprojected into all four images; Huber kernel of `huber_px`) plus the rotation prior.
@@ -51,16 +71,19 @@ struct MotionRefinementWorkspace {
   struct Obs {
     Eigen::Vector3d X;                ///< point in the previous left camera [m]
     Eigen::Matrix<double, 8, 1> uv;   ///< left/right previous, left/right current [px]
+    uint32_t match = 0;               ///< its index into `matches`
   };
   std::vector<Obs> obs;
   std::vector<Eigen::Vector3d> points, trial_points, gl;
   std::vector<Eigen::Matrix3d> Hll_inv;
   std::vector<Eigen::Matrix<double, 6, 3>> Hpl;
+  std::vector<Eigen::Matrix<double, 6, 4>> Gref;  ///< the gradient's reference-pixel part, per point
 };
-/// The same with the buffers of `ws`: identical results.
+/// The same with the buffers of `ws`: identical results. With `sensitivity`, an ok result also
+/// fills it (at the refined motion).
 MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<const geometry::QuadMatch> matches,
                                     std::span<const uint32_t> inliers, const Eigen::Isometry3d& T_prev_curr_init,
                                     const RotationPrior& prior, const MotionRefinementParams& params,
-                                    MotionRefinementWorkspace& ws);
+                                    MotionRefinementWorkspace& ws, ReferenceSensitivity* sensitivity = nullptr);
 
 }  // namespace seavio::odometry

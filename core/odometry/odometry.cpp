@@ -351,14 +351,18 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
 
   // --- III-C: quadrifocal tensor of the two pairs, RANSAC + refinement.
   std::vector<geometry::QuadMatch>& quads = work_.quads;
+  std::vector<uint32_t>& quad_reference = work_.quad_reference;
   const auto toQuads = [&] {
     quads.clear();
+    quad_reference.clear();
     // Room for the guided tracks too (at most one per reference point), so none reallocates.
     reserveWithHeadroom(quads, temporal.size() + ref_features->points.size());
+    reserveWithHeadroom(quad_reference, temporal.size() + ref_features->points.size());
     for (const auto& m : temporal) {
       const auto& a = ref_features->points[static_cast<std::size_t>(m.prev)];
       const auto& b = frame.stereo.points[static_cast<std::size_t>(m.curr)];
       quads.push_back(geometry::QuadMatch{a.uv_left, a.uv_right, b.uv_left, b.uv_right});
+      quad_reference.push_back(static_cast<uint32_t>(m.prev));
     }
   };
   toQuads();
@@ -441,6 +445,8 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
           trackUnmatched(*ref_features, ref_left, ref_right, frame.left_image, frame.right_image, rig,
                          ransac.T_prev_curr, temporal, params_.patch, params_.guided_tracks, cache, work_.guided_used,
                          quads);
+      for (std::size_t i = 0; i < work_.guided_used.size(); ++i)
+        if (work_.guided_used[i] == 2) quad_reference.push_back(static_cast<uint32_t>(i));
       // The same RANSAC (threshold) that found the motion judges the refined pixels. If too
       // few pass, the first selection stands: its inliers were refined just as before.
       geometry::RansacResult& again = work_.reselected;
@@ -462,6 +468,7 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   r.quality.ransac_inliers = static_cast<int>(ransac.inliers.size());
   Eigen::Isometry3d T_prev_curr = vision_ok ? ransac.T_prev_curr : T_ref_curr_pred;
   Matrix6d rel_cov = vision_ok ? Matrix6d(ransac.covariance) : pred_cov;
+  bool sensitivity_ok = false;  // work_.sensitivity belongs to rel_cov
   if (vision_ok && params_.use_rotation_prior) {
     // IMU-aided refinement: the gyro's rotation as a prior removes the pitch/surge ambiguity
     // of a flat floor (see motion_refinement.hpp).
@@ -475,10 +482,12 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
                        keyframeBiasCovariance(filter_.covariance().block<3, 3>(imu::kEsBg, imu::kEsBg),
                                               T_B_R0.rotation(), dt_s, dt_ref_s);
     const MotionRefinementResult refined =
-        refineMotion(rig, quads, ransac.inliers, T_prev_curr, prior, params_.refinement, work_.refinement);
+        refineMotion(rig, quads, ransac.inliers, T_prev_curr, prior, params_.refinement, work_.refinement,
+                     &work_.sensitivity);
     if (refined.ok) {
       T_prev_curr = refined.T_prev_curr;
       rel_cov = refined.covariance;
+      sensitivity_ok = true;
     }
   }
   // The inertial estimator's measurement is the four-view motion without the gyro prior: the
@@ -666,9 +675,24 @@ OdometryResult Odometry::track(FrameFeatures&& frame, std::span<const ImuSample>
   // (rel_cov, also when ICP placed the frame) only on a visual frame whose reference reaches the
   // previous frame through measured poses, and that no map correction moved since either was
   // published.
-  if (r.source == PoseSource::kVision && reference_measured && !map_delta_W && !moved_since_published_)
-    r.increment_covariance = bodyCovarianceSincePrevious(rel_cov, prev.T_W_R0.inverse() * T_W_ref,
+  // The refined motion's claim takes the pixel noise its residuals show (work_.sensitivity);
+  // against a keyframe the previous frame was also placed from, their shared error cancels
+  // (increment_covariance.hpp).
+  const bool published_visual = r.source == PoseSource::kVision && !map_delta_W;
+  if (published_visual && reference_measured && !moved_since_published_) {
+    std::optional<Matrix6d> claim;
+    if (sensitivity_ok) claim = work_.sensitivity.covariance;
+    if (on_keyframe && sensitivity_ok && keyframe_->t_ns != prev.t_ns)
+      if (const auto shared = keyframe_increment_.increment(keyframe_->id, prev.t_ns, work_.sensitivity, quad_reference))
+        claim = shared;
+    r.increment_covariance = bodyCovarianceSincePrevious(claim ? *claim : rel_cov, prev.T_W_R0.inverse() * T_W_ref,
                                                          prev.T_W_R0.inverse() * T_W_R0, T_B_R0);
+  }
+  if (published_visual && on_keyframe && sensitivity_ok)
+    keyframe_increment_.record(keyframe_->id, frame.t_ns, work_.sensitivity, quad_reference,
+                               ref_features->points.size());
+  else
+    keyframe_increment_.forget();
   moved_since_published_ = false;
   previous_coasted_ = r.source != PoseSource::kVision;
   last_motion_ = prev.T_W_R0.inverse() * T_W_R0;

@@ -20,6 +20,7 @@
 #include "core/odometry/frontend.hpp"
 #include "core/odometry/global_refiner.hpp"
 #include "core/odometry/guided_tracks.hpp"
+#include "core/odometry/increment_covariance.hpp"
 #include "core/matching/patch_alignment.hpp"
 #include "core/odometry/motion_refinement.hpp"
 #include "core/odometry/rig_profile.hpp"
@@ -301,6 +302,8 @@ class Odometry {
     std::vector<uint8_t> guided_used;      ///< trackUnmatched's scratch
     ReferenceAlignments keyframe_alignments;  ///< the keyframe's reference-right alignments
     MotionRefinementWorkspace refinement;
+    std::vector<uint32_t> quad_reference;  ///< per quad: its reference point
+    ReferenceSensitivity sensitivity;      ///< the published motion's, against its reference
     std::vector<Eigen::Vector3f> cloud;     ///< the frame's stereo points for ICP / the map
     std::vector<std::pair<int, int>> seeds;  ///< ICP's descriptor seeds
     icp::IcpWorkspace icp;
@@ -309,6 +312,8 @@ class Odometry {
     icp::PointCloudIndex previous_index;
   };
   TrackWork work_;
+  /// The last visual frame's motion against its keyframe, for the next one's increment claim.
+  KeyframeIncrementCovariance keyframe_increment_;
   std::optional<GlobalRequest> pending_request_;  ///< deferred mode, not yet taken
   int deferred_revisits_ = 0;  ///< re-observations among the corrections applied
   /// Deferred mode: frame id of the last correction applied, sent with each request so the
