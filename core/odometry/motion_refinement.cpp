@@ -158,7 +158,8 @@ MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<c
   if (sensitivity) resizeWithHeadroom(Gref, obs.size());
   // Left perturbation T = exp(d) T, d = (rotation, translation) in the previous camera:
   // p = T^-1 exp(-d) X gives dp/d(rot) = R^T [X]x, dp/d(trans) = -R^T, dp/dX = R^T.
-  auto buildSystem = [&](double damping) {
+  // `reference_gains`: also the gradient's reference-pixel part, needed at the solution only.
+  auto buildSystem = [&](double damping, bool reference_gains) {
     S.setZero();
     g.setZero();
     const Eigen::Isometry3d Tinv = T.inverse();
@@ -193,7 +194,7 @@ MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<c
       gl[j] = Jl.transpose() * wr;
       // The reduced gradient's dependence on the reference pixels (rows 0-3): only through the
       // point, whose Jp rows there are zero.
-      if (sensitivity)
+      if (reference_gains)
         Gref[j] = hpl * Hll_inv[j] * Jl.topRows<4>().transpose() * w.head<4>().asDiagonal();
       S += Hpp - hpl * Hll_inv[j] * hpl.transpose();
       g += Jp.transpose() * wr - hpl * Hll_inv[j] * gl[j];
@@ -208,7 +209,7 @@ MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<c
 
   double lambda = 1e-4;
   for (int it = 0; it < params.iterations; ++it) {
-    buildSystem(lambda);
+    buildSystem(lambda, false);
     const Vector6d delta = -S.ldlt().solve(g);
     if (!delta.allFinite()) return out;
     Eigen::Isometry3d dT = Eigen::Isometry3d::Identity();
@@ -232,7 +233,7 @@ MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<c
     }
   }
   if (!T.matrix().allFinite()) return out;
-  buildSystem(0.0);
+  buildSystem(0.0, sensitivity != nullptr);
   const Matrix6d cov = S.ldlt().solve(Matrix6d::Identity());
   if (!cov.allFinite()) return out;
   out.ok = true;
