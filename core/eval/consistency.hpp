@@ -9,9 +9,10 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "core/common/covariance.hpp"
+
 namespace seavio::eval {
 
-using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
 /// One ground-truth sample: the body (IMU) pose in the truth's world and the true biases.
 struct TruthSample {

@@ -15,6 +15,7 @@
 
 #include <Eigen/Core>
 
+#include "core/common/covariance.hpp"
 #include "core/common/types.hpp"
 #include "core/imu/imu_noise.hpp"
 
@@ -26,7 +27,6 @@ inline constexpr int kEsTheta = 0, kEsVel = 3, kEsPos = 6, kEsBg = 9, kEsBa = 12
                      kEsClonePos = 18, kEsDim = 21;
 using EsMatrix = Eigen::Matrix<double, kEsDim, kEsDim>;
 using EsVector = Eigen::Matrix<double, kEsDim, 1>;
-using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
 struct ErrorStateParams {
   ImuNoise noise;                           ///< densities and random walks (sensor.yaml)

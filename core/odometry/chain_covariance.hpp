@@ -17,6 +17,8 @@
 
 #include <Eigen/Core>
 
+#include "core/common/covariance.hpp"
+
 namespace seavio::odometry {
 
 /// Heading variance [rad^2] gained over `dt_s` from a gyro-bias estimate whose heading part
@@ -36,7 +38,6 @@ inline double headingVariance(double heading_bias_error_rad_s, double bias_time_
 inline void composeChainCovariance(Eigen::Matrix<double, 6, 6>& P, const Eigen::Matrix<double, 6, 6>& rel_cov,
                                    const Eigen::Matrix3d& R_W_ref, const Eigen::Vector3d& d_W,
                                    double heading_variance_rad2) {
-  using Matrix6d = Eigen::Matrix<double, 6, 6>;
   // Left perturbation of the reference: R = Exp(dtheta) R_ref, p = p_ref + dp. Then the
   // current position moves by dp + dtheta x d = dp - [d]x dtheta.
   Matrix6d A = Matrix6d::Identity();

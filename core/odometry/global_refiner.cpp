@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/common/covariance.hpp"
 #include "core/common/se3.hpp"
 #include "core/common/stage_timer.hpp"
 #include "core/odometry/pose_checks.hpp"
@@ -10,7 +11,6 @@
 namespace seavio::odometry {
 namespace {
 
-using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
 /// Position variance accumulated since `old` was stored [m^2]: the shared part of the two
 /// poses' uncertainty cancels in their relative pose. It sizes both the revisit search and

@@ -22,7 +22,7 @@ void KeyframeIncrementCovariance::record(uint64_t keyframe_id, int64_t t_ns, con
   }
 }
 
-std::optional<KeyframeIncrementCovariance::Matrix6d> KeyframeIncrementCovariance::increment(
+std::optional<Matrix6d> KeyframeIncrementCovariance::increment(
     uint64_t keyframe_id, int64_t previous_t_ns, const ReferenceSensitivity& sensitivity,
     std::span<const uint32_t> reference_of_match) const {
   if (!recorded_ || keyframe_id != keyframe_id_ || previous_t_ns != t_ns_) return std::nullopt;

@@ -15,13 +15,13 @@
 
 #include <Eigen/Core>
 
+#include "core/common/covariance.hpp"
 #include "core/odometry/motion_refinement.hpp"
 
 namespace seavio::odometry {
 
 class KeyframeIncrementCovariance {
  public:
-  using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
   /// Keeps a frame's motion against keyframe `keyframe_id`: its `sensitivity` (with its
   /// covariance), whose matches are the keyframe points `reference_of_match` (per match index)

@@ -6,12 +6,12 @@
 #include <vector>
 
 #include "core/common/capacity.hpp"
+#include "core/common/covariance.hpp"
 #include "core/common/se3.hpp"
 
 namespace seavio::odometry {
 namespace {
 
-using Matrix6d = Eigen::Matrix<double, 6, 6>;
 using Vector6d = Eigen::Matrix<double, 6, 1>;
 using Vector8d = Eigen::Matrix<double, 8, 1>;
 using Matrix86d = Eigen::Matrix<double, 8, 6>;

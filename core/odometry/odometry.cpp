@@ -4,9 +4,8 @@
 #include <cmath>
 #include <numeric>
 
-#include <Eigen/Eigenvalues>
-
 #include "core/common/capacity.hpp"
+#include "core/common/covariance.hpp"
 #include "core/common/se3.hpp"
 #include "core/common/stage_timer.hpp"
 #include "core/odometry/chain_covariance.hpp"
@@ -15,8 +14,6 @@
 
 namespace seavio::odometry {
 namespace {
-
-using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
 /// The stereo matches the feature controller holds (target_stereo_matches): descriptor matches
 /// only. Completed points come on top of the features it keeps; counted, they would make it
@@ -66,13 +63,6 @@ Eigen::Matrix3d keyframeBiasCovariance(const Eigen::Matrix3d& Pbg_B, const Eigen
                                        double dt_ref_s) {
   const double span2 = std::max(0.0, dt_ref_s * dt_ref_s - dt_s * dt_s);
   return R_B_R0.transpose() * Pbg_B * R_B_R0 * span2;
-}
-
-/// The positive semi-definite part of a symmetric matrix (negative eigenvalues cut to zero): a
-/// difference of covariances that round-off or a contracting propagation made indefinite.
-Matrix6d positivePart(const Matrix6d& A) {
-  const Eigen::SelfAdjointEigenSolver<Matrix6d> es(0.5 * (A + A.transpose()));
-  return es.eigenvectors() * es.eigenvalues().cwiseMax(0.0).asDiagonal() * es.eigenvectors().transpose();
 }
 
 /// A re-observation's covariance update (GlobalCorrection: scale, then position variance added).
