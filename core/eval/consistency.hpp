@@ -13,7 +13,6 @@
 
 namespace seavio::eval {
 
-
 /// One ground-truth sample: the body (IMU) pose in the truth's world and the true biases.
 struct TruthSample {
   int64_t t_ns = 0;

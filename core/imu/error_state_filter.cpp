@@ -4,7 +4,6 @@
 #include <cmath>
 
 #include <Eigen/Cholesky>
-#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
 #include "core/common/se3.hpp"
@@ -271,8 +270,7 @@ void ErrorStateFilter::keepPositive() {
   // A visual rotation is known to ~1e-5 rad while the velocity spreads over ~1e-2 m/s: the gain
   // spans ten orders of magnitude and the Joseph form's products, positive in exact
   // arithmetic, round to small negative eigenvalues that propagation then amplifies.
-  const Eigen::SelfAdjointEigenSolver<EsMatrix> es(0.5 * (P_ + P_.transpose()));
-  P_ = es.eigenvectors() * es.eigenvalues().cwiseMax(0.0).asDiagonal() * es.eigenvectors().transpose();
+  P_ = positivePart(P_);
   P_ = 0.5 * (P_ + P_.transpose());
 }
 

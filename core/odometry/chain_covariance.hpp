@@ -35,7 +35,7 @@ inline double headingVariance(double heading_bias_error_rad_s, double bias_time_
 /// @param R_W_ref the reference's attitude
 /// @param d_W the step p_current - p_reference in W [m]
 /// @param heading_variance_rad2 heading (about W's z, gravity) variance gained over the step
-inline void composeChainCovariance(Eigen::Matrix<double, 6, 6>& P, const Eigen::Matrix<double, 6, 6>& rel_cov,
+inline void composeChainCovariance(Matrix6d& P, const Matrix6d& rel_cov,
                                    const Eigen::Matrix3d& R_W_ref, const Eigen::Vector3d& d_W,
                                    double heading_variance_rad2) {
   // Left perturbation of the reference: R = Exp(dtheta) R_ref, p = p_ref + dp. Then the

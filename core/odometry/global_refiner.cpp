@@ -11,7 +11,6 @@
 namespace seavio::odometry {
 namespace {
 
-
 /// Position variance accumulated since `old` was stored [m^2]: the shared part of the two
 /// poses' uncertainty cancels in their relative pose. It sizes both the revisit search and
 /// the correction's gate and weight.

@@ -22,7 +22,6 @@ namespace seavio::odometry {
 
 class KeyframeIncrementCovariance {
  public:
-
   /// Keeps a frame's motion against keyframe `keyframe_id`: its `sensitivity` (with its
   /// covariance), whose matches are the keyframe points `reference_of_match` (per match index)
   /// out of `reference_points`.

@@ -12,7 +12,7 @@
 namespace seavio::odometry {
 namespace {
 
-using Vector6d = Eigen::Matrix<double, 6, 1>;
+using se3::Vector6d;
 using Vector8d = Eigen::Matrix<double, 8, 1>;
 using Matrix86d = Eigen::Matrix<double, 8, 6>;
 using Matrix83d = Eigen::Matrix<double, 8, 3>;
