@@ -18,6 +18,7 @@
 #include <Eigen/Geometry>
 
 #include "core/camera/rectified_rig.hpp"
+#include "core/common/covariance.hpp"
 #include "core/common/types.hpp"
 #include "core/geometry/quadrifocal_ransac.hpp"
 #include "core/icp/icp.hpp"
@@ -122,6 +123,11 @@ struct GlobalCorrection {
   double time_ms = 0;          ///< wall time of the global step (0 without a clock) [ms]
   /// True if the map moved the frame.
   bool changed() const { return revisit_used || icp_accepted; }
+  /// The re-observation's covariance update applied to a pose covariance `P`.
+  void shrink(Matrix6d& P) const {
+    P *= covariance_scale;
+    P.bottomRightCorner<3, 3>() += Eigen::Matrix3d::Identity() * added_position_variance_m2;
+  }
 };
 
 

@@ -1,8 +1,20 @@
 #include "core/odometry/increment_covariance.hpp"
 
 #include "core/common/capacity.hpp"
+#include "core/common/se3.hpp"
+#include "core/imu/error_state_filter.hpp"
 
 namespace seavio::odometry {
+
+Matrix6d bodyCovarianceSincePrevious(const Matrix6d& covariance_ref, const Eigen::Isometry3d& T_prev_ref,
+                                     const Eigen::Isometry3d& T_prev_curr, const Eigen::Isometry3d& T_B_R0) {
+  // Left perturbation in the reference camera -> in the previous camera: the adjoint of T_prev_ref.
+  Matrix6d Ad = Matrix6d::Zero();
+  Ad.topLeftCorner<3, 3>() = T_prev_ref.rotation();
+  Ad.bottomRightCorner<3, 3>() = T_prev_ref.rotation();
+  Ad.bottomLeftCorner<3, 3>() = se3::skew(T_prev_ref.translation()) * T_prev_ref.rotation();
+  return imu::cameraToBodyMotionCovariance(Ad * covariance_ref * Ad.transpose(), T_prev_curr, T_B_R0);
+}
 
 void KeyframeIncrementCovariance::record(uint64_t keyframe_id, int64_t t_ns, const ReferenceSensitivity& sensitivity,
                                          std::span<const uint32_t> reference_of_match, std::size_t reference_points) {

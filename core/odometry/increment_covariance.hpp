@@ -14,11 +14,18 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "core/common/covariance.hpp"
 #include "core/odometry/motion_refinement.hpp"
 
 namespace seavio::odometry {
+
+/// The covariance of a camera motion against the reference (left perturbation in the reference
+/// camera), carried to the previous frame by `T_prev_ref` (rig frames) and expressed as
+/// imu::RelativeMotion's body-frame covariance of the motion `T_prev_curr` (previous <- current rig).
+Matrix6d bodyCovarianceSincePrevious(const Matrix6d& covariance_ref, const Eigen::Isometry3d& T_prev_ref,
+                                     const Eigen::Isometry3d& T_prev_curr, const Eigen::Isometry3d& T_B_R0);
 
 class KeyframeIncrementCovariance {
  public:

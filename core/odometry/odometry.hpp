@@ -9,6 +9,7 @@
 #include <span>
 
 #include "core/camera/stereo_rectifier.hpp"
+#include "core/common/stage_timer.hpp"
 #include "core/common/types.hpp"
 #include "core/features/feature_count_controller.hpp"
 #include "core/odometry/load_shedding.hpp"
@@ -17,6 +18,7 @@
 #include "core/imu/error_state_filter.hpp"
 #include "core/imu/imu_integrator.hpp"
 #include "core/map/frame_map.hpp"
+#include "core/odometry/frame_track.hpp"
 #include "core/odometry/frontend.hpp"
 #include "core/odometry/global_refiner.hpp"
 #include "core/odometry/guided_tracks.hpp"
@@ -219,18 +221,54 @@ class Odometry {
     Eigen::Isometry3d T_W_R0 = Eigen::Isometry3d::Identity();
     int64_t t_ns = 0;
   };
+  // track()'s stages in the order it runs them, each defined in the file its comment names.
+  void pollLinkedCorrections();
+  OdometryResult resultOf(const FrameFeatures& frame) const;
+  void bufferImu(std::span<const ImuSample> imu);  // inertial_prediction.cpp
   void initialise(const FrameFeatures& frame, std::span<const ImuSample> imu);
-  /// The state into `r` (T_W_B, v_W, covariance).
-  void publishState(OdometryResult& r);
-  /// Makes the frame just tracked (pose `T_W_R0`, the current pose covariance) the keyframe.
-  void newKeyframe(const FrameFeatures& frame, const Eigen::Isometry3d& T_W_R0, int64_t t_ns);
-  /// patch_refinement: the matches `indices` of `quads` (temporal matches `temporal` of
-  /// `ref_features` against `frame`) aligned on the reference left image's patches; `cache`
-  /// (null unless the reference is the keyframe) keeps the reference-right alignments.
+  OdometryResult trackFirstFrame(FrameFeatures&& frame, OdometryResult& r, StageTimer& timer);
+  MotionPrediction predict(int64_t t_ns);  // inertial_prediction.cpp (III-A)
+  // visual_motion.cpp (III-C): the reference, the temporal matches as quads, RANSAC and its retries.
+  TrackingReference previousReference(const MotionPrediction& p) const;
+  TrackingReference keyframeReference(const MotionPrediction& p, int64_t t_ns) const;
+  void matchReference(const FrameFeatures& frame, const FrameTrack& t, bool whole_image);
+  bool rescue(FrameTrack& t);
+  void estimateVisualMotion(const FrameFeatures& frame, FrameTrack& t, OdometryResult& r, StageTimer& timer);
+  // patch_refinement.cpp
+  void refineWithPatches(const FrameFeatures& frame, FrameTrack& t, OdometryResult& r);
+  /// The matches `indices` of `quads` (temporal matches `temporal` of `ref_features` against
+  /// `frame`) aligned on the reference left image's patches; `cache` (null unless the
+  /// reference is the keyframe) keeps the reference-right alignments.
   void refinePatches(const matching::StereoFeatures& ref_features, const cv::Mat& ref_left, const cv::Mat& ref_right,
                      const FrameFeatures& frame, const std::vector<matching::TemporalMatch>& temporal,
                      const Eigen::Isometry3d& T_ref_curr, std::span<const uint32_t> indices,
                      ReferenceAlignments* cache, std::vector<geometry::QuadMatch>& quads) const;
+  void refineWithRotationPrior(FrameTrack& t);  // prior_refinement.cpp
+  // registration.cpp (III-D/E)
+  /// Local ICP's model: `index` rebuilt over the points of `features` (`scratch` holds the
+  /// positions on the way, kept so that only the tree's own nodes allocate).
+  static void buildPointIndex(const matching::StereoFeatures& features, std::vector<Eigen::Vector3f>& scratch,
+                              icp::PointCloudIndex& index);
+  void fillCloud(const FrameFeatures& frame);  ///< the frame's stereo points into work_.cloud
+  void registerFrame(const FrameFeatures& frame, FrameTrack& t, OdometryResult& r);
+  void alignToReference(const std::vector<Eigen::Vector3f>& data, FrameTrack& t, OdometryResult& r);
+  void alignToMap(const FrameFeatures& frame, const std::vector<Eigen::Vector3f>& data, FrameTrack& t,
+                  OdometryResult& r);
+  /// Global mode: the frame (cloud in work_.cloud) to the map, or as a request when deferred.
+  void insertIntoMap(const FrameFeatures& frame, const Eigen::Isometry3d& T_W_R0, const OdometryResult& r,
+                     bool first_frame);
+  void acceptFrame(FrameTrack& t, OdometryResult& r);  // frame_acceptance.cpp
+  // pose_update.cpp
+  void updatePose(int64_t t_ns, FrameTrack& t, OdometryResult& r);
+  void takeVisualPose(const FrameTrack& t);
+  void coast(FrameTrack& t);
+  void claimIncrement(int64_t t_ns, const FrameTrack& t, OdometryResult& r);  // published_increment.cpp
+  // keyframe_policy.cpp
+  void updateKeyframe(const FrameFeatures& frame, const FrameTrack& t, const OdometryResult& r);
+  /// Makes the frame just tracked (pose `T_W_R0`, the current pose covariance) the keyframe.
+  void newKeyframe(const FrameFeatures& frame, const Eigen::Isometry3d& T_W_R0, int64_t t_ns);
+  /// The state into `r` (T_W_B, v_W, covariance).
+  void publishState(OdometryResult& r);
   /// Deferred mode: the request for the frame just tracked.
   void makeGlobalRequest(const FrameFeatures& frame, const Eigen::Isometry3d& T_W_R0, const OdometryResult& r,
                          bool first_frame);
