@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <fstream>
 
 #include <gtest/gtest.h>
@@ -20,16 +21,13 @@ std::string shippedConfigPath() { return std::string(SEAVIO_SOURCE_DIR) + "/conf
 TEST(OdometryConfig, ReadsValuesOverDefaults) {
   odometry::OdometryParams p;
   const auto errors = parse(
-      "odometry: {mode: global, min_inliers: 30, features: {type: orb, controller: {target_count: 800}},"
+      "odometry: {mode: global, min_inliers: 30, features: {controller: {target_count: 800}},"
       " icp: {max_iterations: 7}, map: {selection_radius_m: 4.5}}",
       p);
   EXPECT_TRUE(errors.empty()) << errors.front();
   EXPECT_EQ(p.mode, odometry::Mode::kGlobal);
   EXPECT_EQ(p.min_inliers, 30);
-  EXPECT_EQ(p.features.type, features::DetectorType::kOrb);
-  // Switching detector switches to its own threshold range; the explicit target stays.
   EXPECT_EQ(p.features.controller.target_count, 800);
-  EXPECT_EQ(p.features.controller.max_threshold, features::defaultThresholdRange(features::DetectorType::kOrb).max);
   EXPECT_EQ(p.icp.max_iterations, 7);
   EXPECT_DOUBLE_EQ(p.map.selection_radius_m, 4.5);
 }
@@ -73,6 +71,32 @@ TEST(OdometryConfig, FileErrorsThrowWithThePath) {
   EXPECT_NO_THROW(loadOdometryParamsFile(shippedConfigPath()));
 }
 
+/// The leaf keys of a YAML mapping, as dotted paths.
+void leafKeys(const YAML::Node& node, const std::string& path, std::vector<std::string>& out) {
+  for (const auto& kv : node) {
+    const std::string key = path + "." + kv.first.as<std::string>();
+    if (kv.second.IsMap()) {
+      leafKeys(kv.second, key, out);
+    } else {
+      out.push_back(key);
+    }
+  }
+}
+
+TEST(OdometryConfig, AtMostSixtyKeysAndTheShippedFileListsEveryOne) {
+  // GIVEN the effective configuration of the built-in defaults (`seavio run --print-config`)
+  std::vector<std::string> keys;
+  leafKeys(YAML::Load(describe(odometry::OdometryParams{})), "odometry", keys);
+  // THEN it has at most 60 keys a user sets, and config/seavio.yaml lists each of them
+  EXPECT_GE(keys.size(), 40u);
+  EXPECT_LE(keys.size(), 60u);
+  std::vector<std::string> shipped;
+  leafKeys(YAML::LoadFile(shippedConfigPath())["odometry"], "odometry", shipped);
+  std::sort(keys.begin(), keys.end());
+  std::sort(shipped.begin(), shipped.end());
+  EXPECT_EQ(shipped, keys);
+}
+
 TEST(OdometryConfig, TheShippedFileSaysWhatTheBuiltInDefaultsAre) {
   // `seavio run` without --config uses the built-ins, the daemon and the docs config/seavio.yaml:
   // a default changed in one place only would make the two run different filters.
@@ -103,10 +127,11 @@ TEST(OdometryConfigBadInput, EveryErrorNamesTheFileAndTheKey) {
       {"odometry: [1, 2]\n", "odometry: expected a mapping"},
       {"odometry: {icp: 5}\n", "odometry.icp: expected a mapping"},
       {"odometry: {icp: {max_iterations: 1.5}}\n", "odometry.icp.max_iterations: expected an integer"},
-      {"odometry: {ransac: {confidence: [0.9]}}\n", "odometry.ransac.confidence: expected a number"},
-      {"odometry: {stereo: {left_right_check: maybe}}\n", "odometry.stereo.left_right_check: expected true or false"},
-      {"odometry: {map: {voxel_size_m: .nan}}\n", "odometry.map.voxel_size_m"},
-      {"odometry: {features: {type: {a: 1}}}\n", "odometry.features.type"},
+      {"odometry: {ransac: {inlier_threshold_px: [0.9]}}\n", "odometry.ransac.inlier_threshold_px: expected a number"},
+      {"odometry: {stereo: {completion: {enabled: maybe}}}\n",
+       "odometry.stereo.completion.enabled: expected true or false"},
+      {"odometry: {map: {keyframe_distance_m: .nan}}\n", "odometry.map.keyframe_distance_m"},
+      {"odometry: {prediction: {a: 1}}\n", "odometry.prediction"},
       {"odometry: {min_inliers: 10\n", "line"},
   };
   int i = 0;
