@@ -472,25 +472,29 @@ std::vector<StageRow> runStageBench(const StageBenchOptions& o) {
   std::string error;
   auto rectifier = camera::StereoRectifier::create(ds.calibration, &error);
   if (!rectifier) throw drivers::InputError(ds.root + ": calibration unusable: " + error);
-  const odometry::Frontend frontend(std::move(*rectifier), p.features, odometry::withSceneDepth(p.stereo, p.rig), p.illumination, p.snow);
+  const odometry::Frontend frontend(std::move(*rectifier), p.features, odometry::withSceneDepth(p.stereo, p.rig),
+                                    p.illumination, p.snow, p.ripple_notch);
   std::vector<double> rect, surf1, surf2, stereo, n_features;
-  cv::Mat left, right;
+  odometry::FrontendWorkspace ws;
+  features::Features fl, fr;
+  matching::StereoFeatures sp;
   for (std::size_t i = 0; i < global.results.size(); ++i) {
     const StereoFrame frame = drivers::loadFrame(ds, i);
     const double threshold = global.results[i].quality.detector_threshold > 0
                                  ? global.results[i].quality.detector_threshold
                                  : p.features.controller.initial_threshold;
     auto t0 = std::chrono::steady_clock::now();
-    frontend.rectify(frame, left, right);
+    frontend.rectifySide(0, frame, ws);
+    frontend.rectifySide(1, frame, ws);
     rect.push_back(msSince(t0));
     t0 = std::chrono::steady_clock::now();
-    const features::Features fl = frontend.detect(left, threshold);
+    frontend.detect(ws.left_rect, threshold, ws.surf_left, fl);
     surf1.push_back(msSince(t0));
-    const features::Features fr = frontend.detect(right, threshold);
+    frontend.detect(ws.right_rect, threshold, ws.surf_right, fr);
     surf2.push_back(msSince(t0));
     n_features.push_back(static_cast<double>(fl.keypoints.size()));
     t0 = std::chrono::steady_clock::now();
-    const auto sp = frontend.matchStereo(fl, fr);
+    frontend.matchStereo(fl, fr, ws, sp);
     stereo.push_back(msSince(t0));
   }
 

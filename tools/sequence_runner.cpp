@@ -64,7 +64,7 @@ SequenceRun runSequence(const drivers::Dataset& ds, const odometry::OdometryPara
   out.map_points = odo.frameMap().pointCount();
   out.map_bytes = odo.mapMemoryBytes();
   out.revisit_corrections = odo.revisitCorrections();
-  out.parallel_ransac_batches = processor.parallelRansacBatches();
+  out.parallel_runs = processor.parallelRuns();
   rusage usage{};
   if (getrusage(RUSAGE_SELF, &usage) == 0) out.peak_rss_mb = static_cast<double>(usage.ru_maxrss) / 1024.0;
   return out;

@@ -30,8 +30,9 @@ struct SequenceRun {
   /// Per frame, the IMU biases the odometry holds after it (gyro: still start and vision;
   /// accelerometer: odometry.accel_bias), to compare with a simulator's true biases.
   std::vector<Eigen::Vector3d> gyro_bias_rad_s, accel_bias_m_s2;
-  /// RANSAC batches whose hypotheses were shared with the worker (feature_threads 2).
-  std::size_t parallel_ransac_batches = 0;
+  /// Fork-joins shared with the worker (feature_threads 2): each frame's two image sides, the
+  /// RANSAC's hypothesis batches.
+  std::size_t parallel_runs = 0;
 };
 
 /// Monotonic wall clock [ns] (std::chrono::steady_clock), the clock the stage times use.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 
 #include <opencv2/imgproc.hpp>
 
@@ -373,28 +374,6 @@ Frontend::Frontend(camera::StereoRectifier rectifier, const features::FeaturePar
       snow_(snow),
       ripple_(ripple) {}
 
-void Frontend::rectify(const StereoFrame& frame, cv::Mat& left_rect, cv::Mat& right_rect) const {
-  rectifier_.rectify(frame.left, frame.right, left_rect, right_rect);
-  if (snow_.enabled) {
-    suppressSnow(left_rect, left_rect, snow_);
-    suppressSnow(right_rect, right_rect, snow_);
-  }
-  if (illumination_.enabled) {
-    normalizeIllumination(left_rect, left_rect, illumination_);
-    normalizeIllumination(right_rect, right_rect, illumination_);
-  }
-  if (ripple_.enabled) {
-    RippleNotch notch(ripple_);
-    notch.apply(left_rect, left_rect);
-    notch.apply(right_rect, right_rect);
-  }
-}
-
-void Frontend::rectify(const StereoFrame& frame, FrontendWorkspace& ws) const {
-  rectifySide(0, frame, ws);
-  rectifySide(1, frame, ws);
-}
-
 void Frontend::rectifySide(int cam, const StereoFrame& frame, FrontendWorkspace& ws) const {
   cv::Mat& rect = cam == 0 ? ws.left_rect : ws.right_rect;
   SnowFilter& snow = cam == 0 ? ws.snow : ws.snow_right;
@@ -412,39 +391,9 @@ void Frontend::rectifySide(int cam, const StereoFrame& frame, FrontendWorkspace&
   }
 }
 
-features::Features Frontend::detect(const cv::Mat& rectified, double threshold) const {
-  return extractor_.extract(rectified, threshold);
-}
-
-features::Features Frontend::detect(const cv::Mat& rectified, double threshold, features::SurfWorkspace& surf) const {
-  return extractor_.extract(rectified, threshold, surf);
-}
-
 void Frontend::detect(const cv::Mat& rectified, double threshold, features::SurfWorkspace& surf,
                       features::Features& out) const {
   extractor_.extract(rectified, threshold, surf, out);
-}
-
-namespace {
-
-/// Descriptor rows and Laplacian signs of `out.points[from..)`, from their left features.
-void appendLeftDescriptors(const features::Features& left, std::size_t from, matching::StereoFeatures& out) {
-  for (std::size_t i = from; i < out.points.size(); ++i) {
-    const int l = out.points[i].left_index;
-    out.descriptors.push_back(left.descriptors.row(l));
-    out.laplacian_sign.push_back(left.keypoints[static_cast<std::size_t>(l)].class_id);
-  }
-}
-
-}  // namespace
-
-matching::StereoFeatures Frontend::matchStereo(const features::Features& left, const features::Features& right) const {
-  matching::StereoFeatures out;
-  out.points = matching::matchStereo(left.keypoints, left.descriptors, right.keypoints, right.descriptors,
-                                     rectifier_.rig(), stereo_params_);
-  out.descriptors.create(0, left.descriptors.cols, left.descriptors.type());  // typed even when empty
-  appendLeftDescriptors(left, 0, out);
-  return out;
 }
 
 void Frontend::matchStereo(const features::Features& left, const features::Features& right, FrontendWorkspace& ws,
@@ -463,17 +412,42 @@ void Frontend::matchStereo(const features::Features& left, const features::Featu
   }
 }
 
+namespace {
+
+/// `side(0)` and `side(1)`, through `parallel` when given. Passed by reference (a
+/// reference_wrapper fits std::function's own storage), so a frame allocates nothing here.
+template <typename Side>
+void forBothSides(ParallelFor* parallel, const Side& side) {
+  if (parallel) {
+    parallel->run(2, std::cref(side));
+    return;
+  }
+  side(0);
+  side(1);
+}
+
+}  // namespace
+
 void Frontend::process(const StereoFrame& frame, double threshold, const NowNsFn& now, FrontendWorkspace& ws,
-                       FrameFeatures& f) const {
+                       FrameFeatures& f, ParallelFor* parallel) const {
   f.t_ns = frame.t_ns;
   f.seq = frame.seq;
   f.detector_threshold = threshold;
   f.times = StageTimes{};
   StageTimer timer(now);
-  rectify(frame, ws);
+  // Left and right share nothing until stereo matching: each side has its own image, filter
+  // and SURF buffers in `ws`.
+  const auto rectifyOne = [&](std::size_t cam) { rectifySide(static_cast<int>(cam), frame, ws); };
+  forBothSides(parallel, rectifyOne);
   f.times.rectify_ms = timer.lap_ms();
-  detect(ws.left_rect, threshold, ws.surf_left, f.left);
-  detect(ws.right_rect, threshold, ws.surf_right, f.right);
+  const auto detectOne = [&](std::size_t cam) {
+    if (cam == 0) {
+      detect(ws.left_rect, threshold, ws.surf_left, f.left);
+    } else {
+      detect(ws.right_rect, threshold, ws.surf_right, f.right);
+    }
+  };
+  forBothSides(parallel, detectOne);
   f.times.features_ms = timer.lap_ms();
   matchStereo(f.left, f.right, ws, f.stereo);
   f.times.stereo_ms = timer.lap_ms();
@@ -486,28 +460,9 @@ void Frontend::keepImages(const FrontendWorkspace& ws, FrameFeatures& f) {
 }
 
 FrameFeatures Frontend::process(const StereoFrame& frame, double threshold, const NowNsFn& now) const {
+  FrontendWorkspace ws;
   FrameFeatures f;
-  f.t_ns = frame.t_ns;
-  f.seq = frame.seq;
-  f.detector_threshold = threshold;
-  StageTimer timer(now);
-  cv::Mat left, right;
-  rectify(frame, left, right);
-  f.times.rectify_ms = timer.lap_ms();
-  f.left = detect(left, threshold);
-  f.right = detect(right, threshold);
-  f.times.features_ms = timer.lap_ms();
-  f.stereo = matchStereo(f.left, f.right);
-  if (stereo_params_.completion.enabled) {
-    matching::StereoCompletionWorkspace completion;
-    const std::size_t matched = f.stereo.points.size();
-    f.stereo.completed = matching::completeStereo(f.left.keypoints, left, right, rectifier_.rig(),
-                                                  stereo_params_, completion, f.stereo.points);
-    appendLeftDescriptors(f.left, matched, f.stereo);
-  }
-  f.times.stereo_ms = timer.lap_ms();
-  f.left_image = left;
-  f.right_image = right;
+  process(frame, threshold, now, ws, f);
   return f;
 }
 

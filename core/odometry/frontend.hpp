@@ -10,6 +10,7 @@
 #include <opencv2/core.hpp>
 
 #include "core/camera/stereo_rectifier.hpp"
+#include "core/common/parallel_for.hpp"
 #include "core/common/types.hpp"
 #include "core/features/feature_extractor.hpp"
 #include "core/matching/stereo_completion.hpp"
@@ -152,36 +153,29 @@ class Frontend {
   const camera::RectifiedRig& rig() const { return rectifier_.rig(); }
   const camera::StereoRectifier& rectifier() const { return rectifier_; }
 
-  /// Rectified image of camera `cam` (0 left, 1 right).
-  void rectify(const StereoFrame& frame, cv::Mat& left_rect, cv::Mat& right_rect) const;
-  /// The same into `ws.left_rect` and `ws.right_rect`, filters' buffers from `ws`.
-  void rectify(const StereoFrame& frame, FrontendWorkspace& ws) const;
-  /// One side of the above: camera `cam` (0 left, 1 right) of `frame` into its image and
+  /// Camera `cam` (0 left, 1 right) of `frame` rectified and filtered into its image and
   /// filter buffers of `ws`. The two sides share nothing, so they may run at once.
   void rectifySide(int cam, const StereoFrame& frame, FrontendWorkspace& ws) const;
-  /// Features of one rectified image.
-  features::Features detect(const cv::Mat& rectified, double threshold) const;
-  /// The same with SURF's buffers in `surf` (one per thread calling at once).
-  features::Features detect(const cv::Mat& rectified, double threshold, features::SurfWorkspace& surf) const;
-  /// The same into `out`, reusing its keypoint and descriptor buffers.
+  /// Features of one rectified image into `out`, reusing its keypoint and descriptor buffers,
+  /// with SURF's buffers in `surf` (one per thread calling at once).
   void detect(const cv::Mat& rectified, double threshold, features::SurfWorkspace& surf,
               features::Features& out) const;
+  /// Stereo matching + triangulation of detected features into `out`, reusing its buffers
+  /// (points, descriptor rows) and `ws`'s scratch, completed on `ws`'s rectified images
+  /// (stereo.completion).
+  void matchStereo(const features::Features& left, const features::Features& right, FrontendWorkspace& ws,
+                   matching::StereoFeatures& out) const;
   /// Copies the workspace's rectified images into `f` (FrameFeatures::left_image, right_image),
   /// reusing `f`'s buffers.
   static void keepImages(const FrontendWorkspace& ws, FrameFeatures& f);
-  /// Stereo matching + triangulation of already detected features (descriptors only: the
-  /// completion by patch alignment, stereo.completion, needs the images: the overloads below).
-  matching::StereoFeatures matchStereo(const features::Features& left, const features::Features& right) const;
-  /// The same into `out`, reusing its buffers (points, descriptor rows) and `ws`'s scratch,
-  /// completed on `ws`'s rectified images (stereo.completion).
-  void matchStereo(const features::Features& left, const features::Features& right, FrontendWorkspace& ws,
-                   matching::StereoFeatures& out) const;
-  /// All three, sequentially, timed with `now` (may be empty).
-  FrameFeatures process(const StereoFrame& frame, double threshold, const NowNsFn& now) const;
-  /// The same into `out` with the buffers of `ws` and `out` (give back a FrameFeatures of an
-  /// earlier frame to reuse its allocations): identical results.
+  /// The whole sequence into `out` with the buffers of `ws` and `out` (give back a
+  /// FrameFeatures of an earlier frame to reuse its allocations), timed with `now` (may be
+  /// empty). The two image sides are rectified, then described, through `parallel` when given
+  /// (the daemon's worker): the same result either way.
   void process(const StereoFrame& frame, double threshold, const NowNsFn& now, FrontendWorkspace& ws,
-               FrameFeatures& out) const;
+               FrameFeatures& out, ParallelFor* parallel = nullptr) const;
+  /// The same into fresh buffers (tools and tests: one frame at a time).
+  FrameFeatures process(const StereoFrame& frame, double threshold, const NowNsFn& now) const;
 
  private:
   camera::StereoRectifier rectifier_;

@@ -133,7 +133,7 @@ void Odometry::applyGlobalCorrection(const GlobalCorrection& c) {
 
 OdometryResult Odometry::process(const StereoFrame& frame, std::span<const ImuSample> imu) {
   // Into the buffers of an earlier frame, which track() hands back (no allocation).
-  frontend_.process(frame, controller_.threshold(), now_, frontend_ws_, spare_frame_);
+  frontend_.process(frame, controller_.threshold(), now_, frontend_ws_, spare_frame_, parallel_);
   return track(std::move(spare_frame_), imu);
 }
 

@@ -192,10 +192,11 @@ class Odometry {
   GlobalRefiner makeGlobalRefiner(NowNsFn now = {}) const;
 
   const Frontend& frontend() const { return frontend_; }
-  /// The frame-to-frame RANSACs make and score their hypotheses on `parallel` (nullptr: on the
-  /// calling thread); the poses do not depend on it. Not owned; the global refiner's RANSAC,
+  /// The frontend's two image sides and the frame-to-frame RANSACs' hypotheses run on
+  /// `parallel` (nullptr: on the calling thread); the poses do not depend on it. Not owned; the global refiner's RANSAC,
   /// which may run on another thread, stays on its own.
   void setParallelFor(ParallelFor* parallel) {
+    parallel_ = parallel;
     ransac_.setParallelFor(parallel);
     rescue_ransac_.setParallelFor(parallel);
   }
@@ -328,6 +329,7 @@ class Odometry {
   std::vector<ImuSample> imu_buffer_;  ///< samples kept across calls for interpolation
   /// Per-frame buffers kept across frames (no allocation on the per-frame path).
   FrontendWorkspace frontend_ws_;
+  ParallelFor* parallel_ = nullptr;  ///< the caller's threads for the frontend's two sides and RANSAC
   FrameFeatures spare_frame_;  ///< an earlier frame's buffers, refilled by the frontend
   struct TrackWork {
     std::vector<ImuSample> interval;

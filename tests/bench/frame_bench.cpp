@@ -119,20 +119,21 @@ void BM_FeaturesLeftRight(benchmark::State& state) {
   for (std::size_t k = 0; k < c.frames.size(); ++k) processor->process(c.frames[k], c.imu[k]);
   const odometry::Frontend& frontend = processor->odometry().frontend();
   const double threshold = processor->odometry().detectorThreshold();
-  cv::Mat left, right;
-  frontend.rectify(c.frames[kClipFrames / 2], left, right);
+  odometry::FrontendWorkspace ws;
+  frontend.rectifySide(0, c.frames[kClipFrames / 2], ws);
+  frontend.rectifySide(1, c.frames[kClipFrames / 2], ws);
   std::optional<daemon::WorkerPool> pool;
   if (state.range(0) >= 2) pool.emplace(1, 1);
   std::size_t n = 0;
+  features::Features fl, fr;
   for (auto _ : state) {
-    features::Features fl, fr;
     std::optional<std::future<void>> done;
-    if (pool) done = pool->submit([&] { fr = frontend.detect(right, threshold); });
-    fl = frontend.detect(left, threshold);
+    if (pool) done = pool->submit([&] { frontend.detect(ws.right_rect, threshold, ws.surf_right, fr); });
+    frontend.detect(ws.left_rect, threshold, ws.surf_left, fl);
     if (done) {
       done->get();
     } else {
-      fr = frontend.detect(right, threshold);
+      frontend.detect(ws.right_rect, threshold, ws.surf_right, fr);
     }
     n = fl.keypoints.size() + fr.keypoints.size();
     benchmark::DoNotOptimize(fr.descriptors.data);

@@ -2,7 +2,9 @@
 // tests hold the reuse to "bit-identical to fresh buffers and to the OpenCV calls it replaces",
 // over frames of changing content and size.
 #include <cstring>
+#include <functional>
 #include <string>
+#include <thread>
 #include <tuple>
 #include <utility>
 #include <vector>
@@ -191,13 +193,29 @@ const bench::SurveyClip& clip() {
   return c;
 }
 
+/// A ParallelFor that runs the upper half of the indices on a thread of its own, as the
+/// daemon's worker does.
+class SecondThread final : public ParallelFor {
+ public:
+  void run(std::size_t n, const std::function<void(std::size_t)>& job) override {
+    std::thread upper([&] {
+      for (std::size_t i = n - n / 2; i < n; ++i) job(i);
+    });
+    for (std::size_t i = 0; i < n - n / 2; ++i) job(i);
+    upper.join();
+    ++runs;
+  }
+  int runs = 0;
+};
+
 TEST(FrontendWorkspaceReuse, FramesIntoReusedBuffersEqualFreshFrames) {
   std::string error;
   auto rect = camera::StereoRectifier::create(clip().calibration, &error);
   ASSERT_TRUE(rect) << error;
   const Frontend frontend(std::move(*rect), features::FeatureParams{}, matching::StereoMatchParams{});
-  FrontendWorkspace ws;
-  FrameFeatures reused;
+  FrontendWorkspace ws, threaded_ws;
+  FrameFeatures reused, threaded;
+  SecondThread second_thread;
   // GIVEN consecutive frames (and a blank one: no features, the buffers shrink to nothing)
   for (int k = 0; k < 5; ++k) {
     StereoFrame frame = clip().frames[static_cast<std::size_t>(k)];
@@ -207,15 +225,19 @@ TEST(FrontendWorkspaceReuse, FramesIntoReusedBuffersEqualFreshFrames) {
       frame.left.setTo(90);
       frame.right.setTo(90);
     }
-    // WHEN processed into the same workspace and FrameFeatures, and into fresh ones
+    // WHEN processed into the same workspace and FrameFeatures, into fresh ones, and with the
+    // right image's side on another thread
     frontend.process(frame, 400.0, {}, ws, reused);
     const FrameFeatures fresh = frontend.process(frame, 400.0, {});
+    frontend.process(frame, 400.0, {}, threaded_ws, threaded, &second_thread);
     // THEN every output is identical
     expectSameFeatures(reused, fresh);
+    expectSameFeatures(threaded, fresh);
     if (k != 2) {
       EXPECT_GT(fresh.stereo.points.size(), 100u) << k;
     }
   }
+  EXPECT_EQ(second_thread.runs, 10);  // rectification and description, five frames
 }
 
 TEST(FrontendWorkspaceReuse, RippleNotchFollowsTheFrontendsParameters) {
@@ -237,9 +259,9 @@ TEST(FrontendWorkspaceReuse, RippleNotchFollowsTheFrontendsParameters) {
   // WHEN each rectifies it through one workspace (its notch made with the first front end's
   // parameters) and through the one-shot path
   FrontendWorkspace ws;
-  cv::Mat l, r;
   auto viaWorkspace = [&](const Frontend& f) {
-    f.rectify(frame, ws);
+    f.rectifySide(0, frame, ws);
+    f.rectifySide(1, frame, ws);
     return std::make_pair(ws.left_rect.clone(), ws.right_rect.clone());
   };
   const auto notched = viaWorkspace(notching);
@@ -250,10 +272,10 @@ TEST(FrontendWorkspaceReuse, RippleNotchFollowsTheFrontendsParameters) {
   EXPECT_TRUE(sameMat(unreached_ws.first, plain_ws.first));
   EXPECT_TRUE(sameMat(unreached_ws.second, plain_ws.second));
   EXPECT_FALSE(sameMat(notched.first, plain_ws.first));
-  // AND the one-shot path gives the workspace's images
-  notching.rectify(frame, l, r);
-  EXPECT_TRUE(sameMat(l, notched.first));
-  EXPECT_TRUE(sameMat(r, notched.second));
+  // AND a whole frame in fresh buffers keeps the same images
+  const FrameFeatures whole = notching.process(frame, 400.0, {});
+  EXPECT_TRUE(sameMat(whole.left_image, notched.first));
+  EXPECT_TRUE(sameMat(whole.right_image, notched.second));
 }
 
 TEST(OdometryWorkspaceReuse, ProcessTracksExactlyLikeFreshFrontendFrames) {
