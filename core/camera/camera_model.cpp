@@ -1,7 +1,6 @@
 #include "core/camera/camera_model.hpp"
 
 #include <cmath>
-#include <stdexcept>
 
 namespace seavio::camera {
 namespace {
@@ -68,13 +67,12 @@ cv::Mat CameraIntrinsics::D() const {
   return (cv::Mat_<double>(1, 4) << distortion[0], distortion[1], distortion[2], distortion[3]);
 }
 
-DistortionModel parseDistortionModel(const std::string& name) {
+std::optional<DistortionModel> parseDistortionModel(const std::string& name) {
   // EuRoC spells them "radial-tangential"/"equidistant", Kalibr "radtan"/"equidistant".
   if (name == "radial-tangential" || name == "radtan" || name == "plumb_bob") return DistortionModel::kRadialTangential;
   if (name == "equidistant" || name == "fisheye" || name == "equi") return DistortionModel::kEquidistant;
   if (name == "none" || name.empty()) return DistortionModel::kNone;
-  throw std::invalid_argument("unknown distortion model '" + name +
-                              "' (expected radial-tangential, radtan, equidistant or none)");
+  return std::nullopt;
 }
 
 std::string toString(DistortionModel m) {

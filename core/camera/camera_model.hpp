@@ -2,6 +2,7 @@
 /// Pinhole camera with radial-tangential or equidistant (fisheye) distortion, as in
 /// EuRoC `sensor.yaml` and Kalibr.
 #include <array>
+#include <optional>
 #include <string>
 
 #include <Eigen/Core>
@@ -34,7 +35,9 @@ struct StereoCalibration {
   Eigen::Isometry3d T_B_C1 = Eigen::Isometry3d::Identity();
 };
 
-DistortionModel parseDistortionModel(const std::string& name);  ///< throws std::invalid_argument
+/// EuRoC's and Kalibr's names (kDistortionModelNames); nullopt for another.
+std::optional<DistortionModel> parseDistortionModel(const std::string& name);
+inline constexpr const char* kDistortionModelNames = "radial-tangential, radtan, equidistant or none";
 std::string toString(DistortionModel m);
 
 }  // namespace seavio::camera

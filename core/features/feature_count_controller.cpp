@@ -31,14 +31,7 @@ std::vector<std::string> validate(const FeatureCountControllerParams& p) {
 }
 
 FeatureCountController::FeatureCountController(const FeatureCountControllerParams& params)
-    : params_(params), threshold_(params.initial_threshold) {
-  const auto errors = validate(params_);
-  if (!errors.empty()) {
-    std::string msg = "invalid feature-count controller parameters:";
-    for (const auto& e : errors) msg += " " + e + ";";
-    throw std::invalid_argument(msg);
-  }
-}
+    : params_(params), threshold_(params.initial_threshold) {}
 
 namespace {
 

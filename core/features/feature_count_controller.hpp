@@ -48,7 +48,8 @@ std::vector<std::string> validate(const FeatureCountControllerParams& p);
 /// one owner (the frontend) calls update() once per frame.
 class FeatureCountController {
  public:
-  /// Throws std::invalid_argument listing every problem found by validate().
+  /// `params` must be valid (validate() empty): the configuration's loader checks them
+  /// (drivers/config), core does not throw.
   explicit FeatureCountController(const FeatureCountControllerParams& params = {});
 
   /// Threshold to use for the next image.

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
-#include <stdexcept>
 
 #include <opencv2/features2d.hpp>
 
@@ -39,7 +38,7 @@ void keepStrongest(Features& f, int n) {
 
 }  // namespace
 
-DetectorType parseDetectorType(const std::string& name) {
+std::optional<DetectorType> parseDetectorType(const std::string& name) {
   std::string lower = name;
   std::transform(lower.begin(), lower.end(), lower.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
@@ -47,8 +46,7 @@ DetectorType parseDetectorType(const std::string& name) {
   if (lower == "sift") return DetectorType::kSift;
   if (lower == "orb") return DetectorType::kOrb;
   if (lower == "akaze") return DetectorType::kAkaze;
-  throw std::invalid_argument("unknown detector type '" + name +
-                              "' (expected surf, sift, orb or akaze)");
+  return std::nullopt;
 }
 
 std::string toString(DetectorType type) {
@@ -91,15 +89,7 @@ std::vector<std::string> validate(const FeatureParams& p) {
   return errors;
 }
 
-FeatureExtractor::FeatureExtractor(const FeatureParams& params)
-    : params_(params), surf_(surfParamsFor(params)) {
-  const auto errors = validate(params_);
-  if (!errors.empty()) {
-    std::string msg = "invalid feature parameters:";
-    for (const auto& e : errors) msg += " " + e + ";";
-    throw std::invalid_argument(msg);
-  }
-}
+FeatureExtractor::FeatureExtractor(const FeatureParams& params) : params_(params), surf_(surfParamsFor(params)) {}
 
 Features FeatureExtractor::extract(const cv::Mat& gray8, double threshold) const {
   SurfWorkspace workspace;
@@ -112,22 +102,22 @@ Features FeatureExtractor::extract(const cv::Mat& gray8, double threshold, SurfW
   return f;
 }
 
-void FeatureExtractor::extract(const cv::Mat& gray8, double threshold, SurfWorkspace& workspace, Features& f) const {
+bool FeatureExtractor::extract(const cv::Mat& gray8, double threshold, SurfWorkspace& workspace, Features& f) const {
   if (!gray8.empty() && gray8.type() != CV_8UC1) {
-    throw std::invalid_argument("FeatureExtractor: expected an 8-bit single-channel image, got type " +
-                                std::to_string(gray8.type()));
+    f.keypoints.clear();
+    f.descriptors = cv::Mat();
+    return false;
   }
   f.keypoints.clear();
   f.norm_type = cv::NORM_L2;
   if (gray8.empty()) {
     f.descriptors = cv::Mat();
-    return;
+    return true;
   }
   const int cap = params_.max_features;
   if (params_.type == DetectorType::kSurf) {
     // Into f's own buffers (kept from an earlier frame by the caller): no allocation.
-    surf_.detectAndCompute(gray8, threshold, f.keypoints, f.descriptors, workspace);
-    return;
+    return surf_.detectAndCompute(gray8, threshold, f.keypoints, f.descriptors, workspace);
   }
   // OpenCV's detectors write into an output Mat of the right size even when another header
   // shares it: they get a fresh one (they allocate per call anyway).
@@ -157,6 +147,7 @@ void FeatureExtractor::extract(const cv::Mat& gray8, double threshold, SurfWorks
     }
   }
   keepStrongest(f, cap);
+  return true;
 }
 
 }  // namespace seavio::features

@@ -2,6 +2,7 @@
 /// One front door for the detectors the config can select: our SURF (the paper's, section
 /// III-B) and OpenCV's SIFT, ORB and AKAZE for comparison. All take one scalar threshold so the
 /// same FeatureCountController drives any of them.
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -14,9 +15,8 @@ namespace seavio::features {
 
 enum class DetectorType { kSurf, kSift, kOrb, kAkaze };
 
-/// "surf", "sift", "orb" or "akaze" (case-insensitive); throws std::invalid_argument naming
-/// the bad value and the accepted ones.
-DetectorType parseDetectorType(const std::string& name);
+/// "surf", "sift", "orb" or "akaze" (case-insensitive); nullopt for another name.
+std::optional<DetectorType> parseDetectorType(const std::string& name);
 /// Lower-case name, the inverse of parseDetectorType.
 std::string toString(DetectorType type);
 
@@ -56,21 +56,22 @@ struct Features {
 /// created per call for the same reason).
 class FeatureExtractor {
  public:
-  /// Throws std::invalid_argument listing every problem found by validate().
+  /// `params` must be valid (validate() empty): the configuration's loader checks them
+  /// (drivers/config), core does not throw.
   explicit FeatureExtractor(const FeatureParams& params);
 
   const FeatureParams& params() const { return params_; }
 
-  /// Detects and describes features in `gray8` (CV_8UC1; throws std::invalid_argument
-  /// otherwise) with `threshold` in the detector's units (see ThresholdRange).
+  /// Detects and describes features in `gray8` with `threshold` in the detector's units (see
+  /// ThresholdRange); none unless `gray8` is CV_8UC1.
   Features extract(const cv::Mat& gray8, double threshold) const;
   /// The same with SURF's buffers in `workspace` (kept by the caller across frames, one per
   /// thread calling at once); the OpenCV detectors ignore it.
   Features extract(const cv::Mat& gray8, double threshold, SurfWorkspace& workspace) const;
   /// The same into `out`, whose buffers are reused (give back an earlier frame's Features):
   /// with SURF, repeated calls on images of one size allocate nothing. Identical
-  /// keypoints and descriptors.
-  void extract(const cv::Mat& gray8, double threshold, SurfWorkspace& workspace, Features& out) const;
+  /// keypoints and descriptors. False (and no features) unless `gray8` is CV_8UC1 or empty.
+  bool extract(const cv::Mat& gray8, double threshold, SurfWorkspace& workspace, Features& out) const;
 
  private:
   FeatureParams params_;

@@ -10,13 +10,11 @@
 
 namespace seavio::features {
 
-void IntegralImage::compute(const cv::Mat& gray8) {
-  if (!gray8.empty() && gray8.type() != CV_8UC1) {
-    throw std::invalid_argument("IntegralImage: expected an 8-bit single-channel image, got type " +
-                                std::to_string(gray8.type()));
-  }
-  width_ = gray8.cols;
-  height_ = gray8.rows;
+bool IntegralImage::compute(const cv::Mat& gray8) {
+  // Another type leaves the table of an empty image (one zero row), so boxSum stays defined.
+  const bool ok = gray8.empty() || gray8.type() == CV_8UC1;
+  width_ = ok ? gray8.cols : 0;
+  height_ = ok ? gray8.rows : 0;
   const std::size_t stride = static_cast<std::size_t>(width_) + 1;
   const std::size_t entries = stride * (static_cast<std::size_t>(height_) + 1);
   if (entries > capacity_) {
@@ -66,6 +64,7 @@ void IntegralImage::compute(const cv::Mat& gray8) {
       row[x + 1] = above[x + 1] + run;
     }
   }
+  return ok;
 }
 
 uint32_t IntegralImage::boxSum(int x0, int y0, int x1, int y1) const {

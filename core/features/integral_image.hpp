@@ -16,12 +16,12 @@ namespace seavio::features {
 class IntegralImage {
  public:
   IntegralImage() = default;
-  /// Builds the table of `gray8` (CV_8UC1; throws std::invalid_argument for another type).
+  /// Builds the table of `gray8` (see compute).
   explicit IntegralImage(const cv::Mat& gray8) { compute(gray8); }
 
   /// Rebuilds the table, reusing the buffer when it is large enough. Every entry is written
-  /// once (no zero-fill pass).
-  void compute(const cv::Mat& gray8);
+  /// once (no zero-fill pass). False, and an empty table, unless `gray8` is CV_8UC1 (or empty).
+  bool compute(const cv::Mat& gray8);
 
   int width() const { return width_; }    ///< source width [px]
   int height() const { return height_; }  ///< source height [px]

@@ -817,12 +817,6 @@ std::vector<std::string> validate(const SurfParams& p) {
 int Surf::filterSize(int octave, int layer) { return 3 * ((2 << octave) * (layer + 1) + 1); }
 
 Surf::Surf(SurfParams params) : params_(params) {
-  const auto errors = validate(params_);
-  if (!errors.empty()) {
-    std::string msg = "invalid SURF parameters:";
-    for (const auto& e : errors) msg += " " + e + ";";
-    throw std::invalid_argument(msg);
-  }
 #if SEAVIO_SURF_AVX2
   use_avx2_ = params_.avx2 && __builtin_cpu_supports("avx2");
 #endif
@@ -853,37 +847,43 @@ Surf::Surf(SurfParams params) : params_(params) {
   }
 }
 
-void Surf::detectAndCompute(const cv::Mat& gray8, double hessian_threshold,
+bool Surf::detectAndCompute(const cv::Mat& gray8, double hessian_threshold,
                             std::vector<cv::KeyPoint>& keypoints, cv::Mat& descriptors) const {
   SurfWorkspace workspace;
-  run(gray8, hessian_threshold, keypoints, &descriptors, workspace);
+  return run(gray8, hessian_threshold, keypoints, &descriptors, workspace);
 }
 
-void Surf::detect(const cv::Mat& gray8, double hessian_threshold,
+bool Surf::detect(const cv::Mat& gray8, double hessian_threshold,
                   std::vector<cv::KeyPoint>& keypoints) const {
   SurfWorkspace workspace;
-  run(gray8, hessian_threshold, keypoints, nullptr, workspace);
+  return run(gray8, hessian_threshold, keypoints, nullptr, workspace);
 }
 
-void Surf::detectAndCompute(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
+bool Surf::detectAndCompute(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
                             cv::Mat& descriptors, SurfWorkspace& workspace) const {
-  run(gray8, hessian_threshold, keypoints, &descriptors, workspace);
+  return run(gray8, hessian_threshold, keypoints, &descriptors, workspace);
 }
 
-void Surf::detect(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
+bool Surf::detect(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
                   SurfWorkspace& workspace) const {
-  run(gray8, hessian_threshold, keypoints, nullptr, workspace);
+  return run(gray8, hessian_threshold, keypoints, nullptr, workspace);
 }
 
-void Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
+bool Surf::run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
                cv::Mat* descriptors, SurfWorkspace& workspace) const {
+  if (!gray8.empty() && gray8.type() != CV_8UC1) {
+    keypoints.clear();
+    if (descriptors != nullptr) fitRows(*descriptors, 0, descriptorSize(), CV_32F);
+    return false;
+  }
 #if SEAVIO_SURF_AVX2
   if (use_avx2_) {
     runAvx2(gray8, hessian_threshold, keypoints, descriptors, workspace);
-    return;
+    return true;
   }
 #endif
   runBaseline(gray8, hessian_threshold, keypoints, descriptors, workspace);
+  return true;
 }
 
 template <bool kAvx2>
@@ -896,10 +896,6 @@ SEAVIO_SURF_INLINE void Surf::runWith(const cv::Mat& gray8, double hessian_thres
   // The caller's descriptor rows are kept for reuse (fitRows), not released.
   if (descriptors != nullptr) fitRows(*descriptors, 0, descriptorSize(), CV_32F);
   if (gray8.empty()) return;
-  if (gray8.type() != CV_8UC1) {
-    throw std::invalid_argument("Surf: expected an 8-bit single-channel image, got type " +
-                                std::to_string(gray8.type()));
-  }
   workspace.integral_.compute(gray8);
   const IntegralImage& integral = workspace.integral_;
   const int width = gray8.cols, height = gray8.rows;

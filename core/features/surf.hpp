@@ -61,7 +61,8 @@ class SurfWorkspace {
 /// ground, -1 bright blob), so matchers can skip pairs of opposite sign.
 class Surf {
  public:
-  /// Throws std::invalid_argument listing every problem found by validate().
+  /// `params` must be valid (validate() empty): the configuration's loader checks them
+  /// (drivers/config), core does not throw.
   explicit Surf(SurfParams params);
 
   const SurfParams& params() const { return params_; }
@@ -73,28 +74,28 @@ class Surf {
   /// 51; 27, 51, 75, 99; ...).
   static int filterSize(int octave, int layer);
 
-  /// Detects keypoints in `gray8` (CV_8UC1; throws std::invalid_argument otherwise) with
-  /// det(H) > `hessian_threshold` and describes them. `descriptors` becomes CV_32F, one unit-
+  /// Detects keypoints in `gray8` with det(H) > `hessian_threshold` and describes them; false
+  /// (and no keypoints) unless `gray8` is CV_8UC1 or empty. `descriptors` becomes CV_32F, one unit-
   /// length row per keypoint, in the same order; keypoints come sorted by response, strongest
   /// first. An image too small for the first octave yields no keypoints.
-  void detectAndCompute(const cv::Mat& gray8, double hessian_threshold,
+  bool detectAndCompute(const cv::Mat& gray8, double hessian_threshold,
                         std::vector<cv::KeyPoint>& keypoints, cv::Mat& descriptors) const;
 
   /// Detection only, with orientation (keypoints as above, no descriptors).
-  void detect(const cv::Mat& gray8, double hessian_threshold,
+  bool detect(const cv::Mat& gray8, double hessian_threshold,
               std::vector<cv::KeyPoint>& keypoints) const;
 
   /// As above with the caller's buffers (~13 bytes per pixel of the largest image), so that
   /// repeated calls allocate only their outputs. The overloads without a workspace make a
   /// fresh one per call: core keeps no hidden per-thread state; the per-frame path passes the
   /// workspace its owner keeps (odometry::FrontendWorkspace, one per image side).
-  void detectAndCompute(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
+  bool detectAndCompute(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
                         cv::Mat& descriptors, SurfWorkspace& workspace) const;
-  void detect(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
+  bool detect(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
               SurfWorkspace& workspace) const;
 
  private:
-  void run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
+  bool run(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,
            cv::Mat* descriptors, SurfWorkspace& workspace) const;
   /// run's body (runWith) compiled for the baseline instruction set and for AVX2 (x86-64).
   void runBaseline(const cv::Mat& gray8, double hessian_threshold, std::vector<cv::KeyPoint>& keypoints,

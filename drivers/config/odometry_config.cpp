@@ -268,6 +268,10 @@ void parseOdometryParams(const YAML::Node& node, const std::string& file, odomet
   Parser parser(node, file, errors);
   visit(parser, params);
   parser.checkUnknown();
+  // What the keys' ranges cannot say alone (a target above the cap, a threshold outside its
+  // range): core takes its parameters as valid.
+  for (const std::string& e : features::validate(params.features))
+    errors.push_back(fmt::format("{}: odometry.features: {}", file, e));
 }
 
 odometry::OdometryParams loadOdometryParamsFile(const std::string& path) {

@@ -55,11 +55,11 @@ camera::CameraIntrinsics readIntrinsics(const YAML::Node& n, const std::string& 
   if (c.width <= 0 || c.height <= 0 || c.fx <= 0 || c.fy <= 0)
     throw InputError(path + ": keys 'resolution'/'intrinsics' must be positive");
   const std::string dm = parse::asString(n, "distortion_model", path);
-  try {
-    c.model = camera::parseDistortionModel(dm);
-  } catch (const std::invalid_argument& e) {
-    throw InputError(path + ": key 'distortion_model': " + e.what());
-  }
+  const std::optional<camera::DistortionModel> distortion = camera::parseDistortionModel(dm);
+  if (!distortion)
+    throw InputError(path + ": key 'distortion_model': unknown distortion model '" + dm + "' (expected " +
+                     camera::kDistortionModelNames + ")");
+  c.model = *distortion;
   const auto d = parse::asDoubles(n, dist_key, path, 4);
   for (int i = 0; i < 4; ++i) c.distortion[i] = d[i];
   return c;

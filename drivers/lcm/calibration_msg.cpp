@@ -41,12 +41,13 @@ bool getCamera(const seavio_lcm::calibration_t& m, int i, camera::CameraIntrinsi
     error = cam + ": focal lengths must be finite and > 0, principal point finite";
     return false;
   }
-  try {
-    k.model = camera::parseDistortionModel(m.distortion_model[i]);
-  } catch (const std::invalid_argument& e) {
-    error = cam + ": " + e.what();
+  const std::optional<camera::DistortionModel> model = camera::parseDistortionModel(m.distortion_model[i]);
+  if (!model) {
+    error = cam + ": unknown distortion model '" + std::string(m.distortion_model[i]) + "' (expected " +
+            camera::kDistortionModelNames + ")";
     return false;
   }
+  k.model = *model;
   for (int j = 0; j < 4; ++j) k.distortion[static_cast<std::size_t>(j)] = m.distortion[i][j];
   T.matrix().setIdentity();
   for (int r = 0; r < 4; ++r)

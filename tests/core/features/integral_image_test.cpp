@@ -81,7 +81,13 @@ TEST(IntegralImage, WrappedTableStillGivesExactBoxSums) {
 
 TEST(IntegralImage, RejectsColourImages) {
   const cv::Mat colour(4, 4, CV_8UC3, cv::Scalar(1, 2, 3));
-  EXPECT_THROW(IntegralImage{colour}, std::invalid_argument);
+  IntegralImage ii;
+  EXPECT_FALSE(ii.compute(colour));
+  // AND it reads as an empty image, never out of its table
+  EXPECT_EQ(ii.width(), 0);
+  EXPECT_EQ(ii.boxSum(0, 0, 4, 4), 0u);
+  EXPECT_TRUE(ii.compute(cv::Mat(4, 4, CV_8UC1, cv::Scalar(2))));
+  EXPECT_EQ(ii.boxSum(0, 0, 4, 4), 32u);
 }
 
 }  // namespace

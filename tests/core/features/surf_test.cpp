@@ -236,12 +236,13 @@ TEST(Surf, BadOrTinyInputNeverCrashes) {
   EXPECT_EQ(desc.rows, 0);
   surf.detectAndCompute(cv::Mat(480, 640, CV_8UC1, cv::Scalar(90)), 0, kps, desc);
   EXPECT_TRUE(kps.empty()) << "flat image has no maxima";
-  EXPECT_THROW(surf.detectAndCompute(cv::Mat(20, 20, CV_8UC3), 400, kps, desc), std::invalid_argument);
+  EXPECT_FALSE(surf.detectAndCompute(cv::Mat(20, 20, CV_8UC3), 400, kps, desc));
+  EXPECT_TRUE(kps.empty());
+  EXPECT_EQ(desc.rows, 0);
   SurfParams bad;
   bad.octaves = 0;
   bad.max_features = -1;
   EXPECT_EQ(validate(bad).size(), 2u);
-  EXPECT_THROW(Surf{bad}, std::invalid_argument);
 }
 
 /// True if the two results are the same bit for bit (keypoints and descriptor rows).

@@ -132,6 +132,7 @@ TEST(OdometryConfigBadInput, EveryErrorNamesTheFileAndTheKey) {
        "odometry.stereo.completion.enabled: expected true or false"},
       {"odometry: {map: {keyframe_distance_m: .nan}}\n", "odometry.map.keyframe_distance_m"},
       {"odometry: {prediction: {a: 1}}\n", "odometry.prediction"},
+      {"odometry: {features: {controller: {target_count: 5000, max_count: 3000}}}\n", "odometry.features: "},
       {"odometry: {min_inliers: 10\n", "line"},
   };
   int i = 0;
