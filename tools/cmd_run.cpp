@@ -13,7 +13,7 @@
 #include "core/eval/trajectory_metrics.hpp"
 #include "core/imu/imu_integrator.hpp"
 #include "core/odometry/odometry.hpp"
-#include "core/odometry/pnp_baseline.hpp"
+#include "tools/pnp_baseline.hpp"
 #include "drivers/config/odometry_config.hpp"
 #include "drivers/dataset/dataset.hpp"
 #include "drivers/dataset/tum_io.hpp"
@@ -68,9 +68,9 @@ std::vector<eval::TimedPose> runPnpBaseline(const drivers::Dataset& ds, std::siz
   params.features.max_features = 500;
   const odometry::Frontend frontend(std::move(*rectifier), params.features, odometry::withSceneDepth(params.stereo, params.rig), params.illumination,
                                     params.snow);
-  odometry::PnpBaselineParams bp;
+  tools::PnpBaselineParams bp;
   bp.threshold = params.features.controller.initial_threshold;
-  odometry::PnpBaseline baseline(frontend, bp);
+  tools::PnpBaseline baseline(frontend, bp);
   std::vector<eval::TimedPose> out;
   for (std::size_t i = 0; i < n; ++i) {
     const OdometryResult r = baseline.process(drivers::loadFrame(ds, i), monotonicNowNs);

@@ -16,7 +16,7 @@
 #include "core/common/types.hpp"
 #include "core/odometry/frontend.hpp"
 
-namespace seavio::odometry {
+namespace seavio::tools {
 
 struct PnpBaselineParams {
   double reprojection_px = 1.0;  ///< RANSAC and refinement inlier threshold [px]
@@ -56,22 +56,22 @@ std::optional<PnpMotion> solvePnpMotion(const std::vector<cv::Point3f>& object_p
 
 class PnpBaseline {
  public:
-  PnpBaseline(const Frontend& frontend, const PnpBaselineParams& params) : frontend_(frontend), params_(params) {}
+  PnpBaseline(const odometry::Frontend& frontend, const PnpBaselineParams& params) : frontend_(frontend), params_(params) {}
   /// One stereo frame: front end, then track(). `now` times the stages (may be empty).
   OdometryResult process(const StereoFrame& frame, const NowNsFn& now = {});
   /// The frame's features in (as the Frontend gives them), its pose out. A frame whose motion
   /// is missing or implausible gets the previous step again, flagged kImuOnly (here: "no
   /// vision", there is no IMU in the baseline).
-  OdometryResult track(FrameFeatures f, const NowNsFn& now = {});
+  OdometryResult track(odometry::FrameFeatures f, const NowNsFn& now = {});
 
  private:
   /// Whether the step `T_prev_curr` (R0 of the last output pose to the candidate) over `dt_s`
   /// passes the gate against the previous step.
   bool plausible(const Eigen::Isometry3d& T_prev_curr, double dt_s) const;
 
-  const Frontend& frontend_;
+  const odometry::Frontend& frontend_;
   PnpBaselineParams params_;
-  std::optional<FrameFeatures> reference_;  ///< the frame the next one is matched against
+  std::optional<odometry::FrameFeatures> reference_;  ///< the frame the next one is matched against
   Eigen::Isometry3d T_W_ref_ = Eigen::Isometry3d::Identity();  ///< its R0 pose
   int reference_age_ = 0;                                      ///< frames since it
   Eigen::Isometry3d T_W_R0_ = Eigen::Isometry3d::Identity();   ///< the last output's R0 pose
@@ -80,4 +80,4 @@ class PnpBaseline {
   int64_t last_t_ns_ = 0;
 };
 
-}  // namespace seavio::odometry
+}  // namespace seavio::tools

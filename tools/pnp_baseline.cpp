@@ -1,4 +1,4 @@
-#include "core/odometry/pnp_baseline.hpp"
+#include "tools/pnp_baseline.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -8,7 +8,7 @@
 
 #include "core/common/stage_timer.hpp"
 
-namespace seavio::odometry {
+namespace seavio::tools {
 
 std::optional<PnpMotion> solvePnpMotion(const std::vector<cv::Point3f>& object_prev,
                                         const std::vector<cv::Point2f>& image_curr, const camera::RectifiedRig& rig,
@@ -69,7 +69,7 @@ OdometryResult PnpBaseline::process(const StereoFrame& frame, const NowNsFn& now
   return track(frontend_.process(frame, params_.threshold, now), now);
 }
 
-OdometryResult PnpBaseline::track(FrameFeatures f, const NowNsFn& now) {
+OdometryResult PnpBaseline::track(odometry::FrameFeatures f, const NowNsFn& now) {
   StageTimer timer(now);
   OdometryResult r;
   r.t_ns = f.t_ns;
@@ -147,4 +147,4 @@ OdometryResult PnpBaseline::track(FrameFeatures f, const NowNsFn& now) {
   return r;
 }
 
-}  // namespace seavio::odometry
+}  // namespace seavio::tools

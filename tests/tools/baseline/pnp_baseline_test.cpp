@@ -10,13 +10,17 @@
 
 #include <gtest/gtest.h>
 
-#include "core/odometry/pnp_baseline.hpp"
+#include "tools/pnp_baseline.hpp"
 #include "tests/core/odometry/downward_rig.hpp"
 #include "tests/core/odometry/floor_frame.hpp"
 
 namespace seavio::odometry {
 namespace pnp_baseline_test {
 namespace {
+
+using tools::PnpBaseline;
+using tools::PnpBaselineParams;
+using tools::solvePnpMotion;
 
 constexpr double kSpeed = 1.0, kFrameDt = 0.1;  // [m/s], [s]: 0.1 m per frame, as the short surveys
 
