@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 
 #include <Eigen/Dense>
 
@@ -37,16 +38,27 @@ inline __m128 bilinear4(const uint8_t* data, std::size_t step, __m128 x, __m128 
   alignas(16) int32_t xs[4], ys[4];
   _mm_store_si128(reinterpret_cast<__m128i*>(xs), xi);
   _mm_store_si128(reinterpret_cast<__m128i*>(ys), yi);
-  // Each pixel pair (x0, x0 + 1) of a row as one 16-bit load: low byte x0, high byte x0 + 1.
-  int32_t top[4], bottom[4];
-  for (int l = 0; l < 4; ++l) {
-    const uint8_t* r0 = data + static_cast<std::ptrdiff_t>(ys[l]) * static_cast<std::ptrdiff_t>(step) + xs[l];
-    top[l] = r0[0] | (r0[1] << 8);
-    bottom[l] = r0[step] | (r0[step + 1] << 8);
-  }
-  const __m128i t = _mm_setr_epi32(top[0], top[1], top[2], top[3]);
-  const __m128i b = _mm_setr_epi32(bottom[0], bottom[1], bottom[2], bottom[3]);
-  const __m128i low = _mm_set1_epi32(0xff);
+  // Each pixel pair (x0, x0 + 1) of a row as one 16-bit word, low byte x0: words 0-3 the
+  // upper rows of the four lanes, 4-7 their lower rows.
+  const auto pair = [](const uint8_t* p) {
+    uint16_t w;
+    std::memcpy(&w, p, sizeof w);
+    return static_cast<int>(w);
+  };
+  const uint8_t* r[4];
+  for (int l = 0; l < 4; ++l)
+    r[l] = data + static_cast<std::ptrdiff_t>(ys[l]) * static_cast<std::ptrdiff_t>(step) + xs[l];
+  __m128i pairs = _mm_setzero_si128();
+  pairs = _mm_insert_epi16(pairs, pair(r[0]), 0);
+  pairs = _mm_insert_epi16(pairs, pair(r[1]), 1);
+  pairs = _mm_insert_epi16(pairs, pair(r[2]), 2);
+  pairs = _mm_insert_epi16(pairs, pair(r[3]), 3);
+  pairs = _mm_insert_epi16(pairs, pair(r[0] + step), 4);
+  pairs = _mm_insert_epi16(pairs, pair(r[1] + step), 5);
+  pairs = _mm_insert_epi16(pairs, pair(r[2] + step), 6);
+  pairs = _mm_insert_epi16(pairs, pair(r[3] + step), 7);
+  const __m128i zero = _mm_setzero_si128(), low = _mm_set1_epi32(0xff);
+  const __m128i t = _mm_unpacklo_epi16(pairs, zero), b = _mm_unpackhi_epi16(pairs, zero);
   const __m128 p00 = _mm_cvtepi32_ps(_mm_and_si128(t, low)), p01 = _mm_cvtepi32_ps(_mm_srli_epi32(t, 8));
   const __m128 p10 = _mm_cvtepi32_ps(_mm_and_si128(b, low)), p11 = _mm_cvtepi32_ps(_mm_srli_epi32(b, 8));
   const __m128 one = _mm_set1_ps(1.f);
