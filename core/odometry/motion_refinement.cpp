@@ -41,6 +41,41 @@ Matrix23d projectJacobian(const camera::RectifiedRig& rig, const Eigen::Vector3d
   return J;
 }
 
+/// Jp^T diag(w) Jp for a motion Jacobian whose first four rows (the reference pair's pixels,
+/// which the motion does not move) are zero. Why not the product expression: at 6x6x8 it is
+/// past Eigen's coefficient-based size, and the general matrix product's call, packing and
+/// blocking cost several times the arithmetic, once per point and iteration. The sums run in
+/// the order that product's kernel gives them on SSE2 without FMA (rows 4-5 of columns 0-3:
+/// even and odd k apart, then added; all else in k order), so the two agree to the bit there
+/// and the refinement's results do not depend on which one is used.
+Matrix6d motionInformation(const Matrix86d& Jp, const Vector8d& w) {
+  double a[4][6];  // (Jp^T diag(w))(i, k), k = 4..7
+  for (int k = 0; k < 4; ++k)
+    for (int i = 0; i < 6; ++i) a[k][i] = Jp(4 + k, i) * w[4 + k];
+  Matrix6d H;
+  for (int j = 0; j < 6; ++j)
+    for (int i = 0; i < 6; ++i) {
+      const double t4 = a[0][i] * Jp(4, j), t5 = a[1][i] * Jp(5, j), t6 = a[2][i] * Jp(6, j),
+                   t7 = a[3][i] * Jp(7, j);
+      if (i >= 4 && j < 4) {
+        double even = 0.0, odd = 0.0;
+        even += t4;
+        odd += t5;
+        even += t6;
+        odd += t7;
+        H(i, j) = even + odd;
+      } else {
+        double sum = 0.0;
+        sum += t4;
+        sum += t5;
+        sum += t6;
+        sum += t7;
+        H(i, j) = sum;
+      }
+    }
+  return H;
+}
+
 /// Huber cost of one residual [px^2] and its IRLS weight.
 double huberCost(double r, double k) {
   const double a = std::abs(r);
@@ -183,7 +218,7 @@ MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<c
       Jp.bottomRows<2>() = Jy1 * dY;
       Vector8d w;
       for (int q = 0; q < 8; ++q) w[q] = w2 * huberWeight(r[q], k);
-      Matrix6d Hpp = Jp.transpose() * w.asDiagonal() * Jp;
+      Matrix6d Hpp = motionInformation(Jp, w);
       const Eigen::Matrix<double, 6, 3> hpl = Jp.transpose() * w.asDiagonal() * Jl;
       Eigen::Matrix3d Hll = Jl.transpose() * w.asDiagonal() * Jl;
       const Vector8d wr = w.cwiseProduct(r);
