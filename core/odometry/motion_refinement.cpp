@@ -190,7 +190,16 @@ MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<c
   resizeWithHeadroom(Hll_inv, obs.size());
   resizeWithHeadroom(Hpl, obs.size());
   resizeWithHeadroom(gl, obs.size());
-  if (sensitivity) resizeWithHeadroom(Gref, obs.size());
+  std::vector<Eigen::Matrix<double, 6, 4>>& Gcur = ws.Gcur;
+  std::vector<double>& residual_dof = ws.residual_dof;
+  if (sensitivity) {
+    resizeWithHeadroom(Gref, obs.size());
+    resizeWithHeadroom(Gcur, obs.size());
+    resizeWithHeadroom(residual_dof, obs.size());
+  }
+  // Under the template-aligned noise model the reference-left pixel carries none (its own
+  // error is the template's origin, which the other three follow).
+  const int first_noisy = params.template_aligned ? 2 : 0;
   // Left perturbation T = exp(d) T, d = (rotation, translation) in the previous camera:
   // p = T^-1 exp(-d) X gives dp/d(rot) = R^T [X]x, dp/d(trans) = -R^T, dp/dX = R^T.
   // `reference_gains`: also the gradient's reference-pixel part, needed at the solution only.
@@ -229,8 +238,20 @@ MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<c
       gl[j] = Jl.transpose() * wr;
       // The reduced gradient's dependence on the reference pixels (rows 0-3): only through the
       // point, whose Jp rows there are zero.
-      if (reference_gains)
+      if (reference_gains) {
         Gref[j] = hpl * Hll_inv[j] * Jl.topRows<4>().transpose() * w.head<4>().asDiagonal();
+        // The current pixels' part: through the point and directly (r = projection - uv).
+        Gcur[j] = (hpl * Hll_inv[j] * Jl.bottomRows<4>().transpose() - Jp.bottomRows<4>().transpose()) *
+                  w.tail<4>().asDiagonal();
+        // The residual with the point refit is -(I - Jl Hll^-1 Jl^T W) e: its expected
+        // Huber-weighted square under unit noise on the noisy pixels.
+        const Eigen::Matrix<double, 8, 8> M =
+            Eigen::Matrix<double, 8, 8>::Identity() - Jl * Hll_inv[j] * Jl.transpose() * w.asDiagonal();
+        double dof = 0;
+        for (int q = first_noisy; q < 8; ++q)
+          for (int i = 0; i < 8; ++i) dof += w[i] / w2 * M(i, q) * M(i, q);
+        residual_dof[j] = dof;
+      }
       S += Hpp - hpl * Hll_inv[j] * hpl.transpose();
       g += Jp.transpose() * wr - hpl * Hll_inv[j] * gl[j];
     }
@@ -285,13 +306,25 @@ MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<c
     for (std::size_t j = 0; j < obs.size(); ++j)
       if (residual(Tinv, obs[j], points[j], r))
         for (int q = 0; q < 8; ++q) weighted_sq += huberWeight(r[q], k) * r[q] * r[q];
-    const double dof = 5.0 * static_cast<double>(obs.size()) - 6.0;
-    const double f = std::max(weighted_sq / dof / (params.pixel_sigma_px * params.pixel_sigma_px), 1e-4);
+    double dof = 5.0 * static_cast<double>(obs.size()) - 6.0;
+    if (params.template_aligned) {
+      dof = -6.0;
+      for (std::size_t j = 0; j < obs.size(); ++j) dof += residual_dof[j];
+    }
+    const double f = std::max(weighted_sq / std::max(dof, 1.0) / (params.pixel_sigma_px * params.pixel_sigma_px), 1e-4);
     // The fit weighs pixels and prior by the model, so its motion errs by the sandwich
-    // S^-1 Cov(g) S^-1, the gradient's pixel part f times the model's, the prior's as it was.
+    // S^-1 Cov(g) S^-1: the gradient's pixel part f times the model's when every pixel is
+    // noisy alike, else summed over the noisy pixels; the prior's as it was.
     Matrix6d S_prior = Matrix6d::Zero();
     if (prior.valid) S_prior.topLeftCorner<3, 3>() = T.rotation() * prior_info * T.rotation().transpose();
-    const Matrix6d C = cov * (f * (S - S_prior) + S_prior) * cov;
+    Matrix6d pixel_part = f * (S - S_prior);
+    if (params.template_aligned) {
+      pixel_part.setZero();
+      for (std::size_t j = 0; j < obs.size(); ++j)
+        pixel_part += Gref[j].rightCols<2>() * Gref[j].rightCols<2>().transpose() + Gcur[j] * Gcur[j].transpose();
+      pixel_part *= f * params.pixel_sigma_px * params.pixel_sigma_px;
+    }
+    const Matrix6d C = cov * (pixel_part + S_prior) * cov;
     sensitivity->variance_factor = f;
     sensitivity->covariance = 0.5 * (C + C.transpose());
     // d = -S^-1 g: a reference pixel error du (sigma sqrt(f)) moves the motion by S^-1 Gref du,
@@ -301,6 +334,7 @@ MotionRefinementResult refineMotion(const camera::RectifiedRig& rig, std::span<c
     for (std::size_t j = 0; j < obs.size(); ++j) {
       sensitivity->match[j] = obs[j].match;
       sensitivity->gain[j] = cov * Gref[j] * (params.pixel_sigma_px * std::sqrt(f));
+      if (params.template_aligned) sensitivity->gain[j].leftCols<2>().setZero();
     }
     sensitivity->prior_gain.setZero();
     sensitivity->prior_covariance.setZero();

@@ -26,6 +26,9 @@ struct MotionRefinementParams {
   double pixel_sigma_px = 0.25;  ///< feature localisation noise [px]
   double huber_px = 1.0;         ///< robust kernel width [px]
   double min_rotation_sigma_rad = 2e-5;  ///< floor on the prior's sigma [rad]
+  /// The other three pixels of each match were aligned against a template cut around its
+  /// reference-left pixel (patch refinement): the sensitivity's noise model (below).
+  bool template_aligned = false;
 };
 
 struct MotionRefinementResult {
@@ -44,8 +47,17 @@ struct MotionRefinementResult {
 /// `variance_factor` times the model's pixel_sigma_px squared) rather than the model's: patch
 /// alignment localises a point in the other three images relative to its reference-left
 /// template, so its pixels err far less, and less independently, than the detector's sigma.
+/// With `template_aligned` the noise is modelled as that alignment makes it: the
+/// reference-left pixel is the template's origin, and an error of it is one the other three
+/// follow (a shift of the point along the floor, which the point absorbs): it carries no
+/// noise of its own. The reference-right pixel and the two current ones carry the
+/// alignment's, independent between them (each from its own image), the reference-right one
+/// shared by every frame tracked against that reference. The a posteriori variance counts
+/// the residual degrees of freedom under that model, so it is the alignment's variance:
+/// counting the reference-left pixel's share of the degrees of freedom as noise would put it
+/// a quarter low, and the claim that much too tight.
 struct ReferenceSensitivity {
-  double variance_factor = 1;  ///< weighted residual square sum / its degrees of freedom / sigma^2
+  double variance_factor = 1;  ///< the noisy pixels' variance (from the residuals) / sigma^2
   /// The motion's covariance under that noise (the result's `covariance` keeps the model's).
   Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
   std::vector<uint32_t> match;  ///< the index into `matches` of each entry of `gain`
@@ -78,6 +90,8 @@ struct MotionRefinementWorkspace {
   std::vector<Eigen::Matrix3d> Hll_inv;
   std::vector<Eigen::Matrix<double, 6, 3>> Hpl;
   std::vector<Eigen::Matrix<double, 6, 4>> Gref;  ///< the gradient's reference-pixel part, per point
+  std::vector<Eigen::Matrix<double, 6, 4>> Gcur;  ///< ... and its current-pixel part
+  std::vector<double> residual_dof;  ///< per point, its residual's degrees of freedom under the noise model
 };
 /// The same with the buffers of `ws`: identical results. With `sensitivity`, an ok result also
 /// fills it (at the refined motion).

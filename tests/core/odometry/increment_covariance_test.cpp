@@ -48,6 +48,12 @@ Vector6d leftError(const Eigen::Isometry3d& est, const Eigen::Isometry3d& truth)
 
 double nees(const Vector6d& e, const Matrix6d& C) { return e.dot(Eigen::LLT<Matrix6d>(C).solve(e)); }
 
+double mean(const std::vector<double>& v) {
+  double sum = 0;
+  for (double x : v) sum += x;
+  return sum / static_cast<double>(v.size());
+}
+
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v[v.size() / 2];
@@ -56,17 +62,31 @@ double median(std::vector<double> v) {
 struct Trials {
   std::vector<double> nees_claim, nees_keyframe_motion;
   double trace_ratio = 0;  ///< claimed increment translation / keyframe-to-frame, averaged
+  double variance_factor_mean = 0;  ///< the later frame's ReferenceSensitivity::variance_factor, averaged
+};
+
+/// How a trial's pixels err.
+struct PixelNoise {
+  double sigma_px = kModelSigma;  ///< each pixel's own noise (the keyframe-left one's too unless aligned)
+  /// > 0: as patch refinement makes them: the keyframe-left pixel (the template's origin) errs
+  /// by this much and the other three follow it (a shift of the point along the floor); only
+  /// they carry `sigma_px` (the alignment's).
+  double template_follow_px = 0;
+  bool claim_template_aligned = false;  ///< MotionRefinementParams::template_aligned
 };
 
 /// Frames 1 and 2 tracked against one keyframe over a floor 4 m below: each trial draws the
 /// keyframe's pixels and the prior's error since the keyframe once for both, the frames' own
 /// pixels and the last interval's gyro error apart.
-Trials run(int trials, bool with_prior, double pixel_noise_px) {
+Trials run(int trials, bool with_prior, const PixelNoise& noise) {
+  const double pixel_noise_px = noise.sigma_px;
+  const bool aligned = noise.template_follow_px > 0;
   const camera::RectifiedRig rig = test::rectifiedDownwardRig();
   const Eigen::Isometry3d T1 = step(0.10, 4e-4), T2 = step(0.20, 9e-4);  // keyframe <- frame
   std::mt19937 rng(29);
   std::uniform_real_distribution<double> ux(-1.8, 1.8), uy(-1.0, 1.0), uz(-0.05, 0.05);
   std::normal_distribution<double> pix(0.0, pixel_noise_px), shared(0.0, kPriorSigma), own(0.0, kIntervalSigma);
+  std::normal_distribution<double> follow(0.0, aligned ? noise.template_follow_px : 1.0);
   std::vector<Eigen::Vector3d> X;  // keyframe camera, seen from both frames
   const auto inside = [&](const Eigen::Vector2d& uv) {
     return uv.x() > 5 && uv.y() > 5 && uv.x() < rig.width - 5 && uv.y() < rig.height - 5;
@@ -82,6 +102,7 @@ Trials run(int trials, bool with_prior, double pixel_noise_px) {
   params.pixel_sigma_px = kModelSigma;
   params.iterations = 12;
   params.min_rotation_sigma_rad = 1e-9;
+  params.template_aligned = noise.claim_template_aligned;
   // Frame 1 matched every point, frame 2 all but the first 20, in another order.
   std::vector<uint32_t> ref1(X.size()), ref2;
   for (uint32_t i = 0; i < X.size(); ++i) ref1[i] = i;
@@ -89,9 +110,15 @@ Trials run(int trials, bool with_prior, double pixel_noise_px) {
   Trials out;
   for (int t = 0; t < trials; ++t) {
     std::vector<Eigen::Vector2f> kl(X.size()), kr(X.size());
+    std::vector<Eigen::Vector2d> shift(X.size(), Eigen::Vector2d::Zero());  // what the aligned pixels follow
     for (std::size_t i = 0; i < X.size(); ++i) {
-      kl[i] = noisy(rig.project(X[i], 0), pix, rng);
-      kr[i] = noisy(rig.project(X[i], 1), pix, rng);
+      if (aligned) {
+        shift[i] = Eigen::Vector2d(follow(rng), follow(rng));
+        kl[i] = (rig.project(X[i], 0) + shift[i]).cast<float>();
+      } else {
+        kl[i] = noisy(rig.project(X[i], 0), pix, rng);
+      }
+      kr[i] = noisy(rig.project(X[i], 1) + shift[i], pix, rng);
     }
     const Eigen::Vector3d e1(shared(rng), shared(rng), shared(rng));
     const Eigen::Vector3d e2 = e1 + Eigen::Vector3d(own(rng), own(rng), own(rng));
@@ -100,7 +127,8 @@ Trials run(int trials, bool with_prior, double pixel_noise_px) {
       std::vector<geometry::QuadMatch> quads;
       for (uint32_t i : ref) {
         const Eigen::Vector3d Y = T.inverse() * X[i];
-        quads.push_back({kl[i], kr[i], noisy(rig.project(Y, 0), pix, rng), noisy(rig.project(Y, 1), pix, rng)});
+        quads.push_back({kl[i], kr[i], noisy(rig.project(Y, 0) + shift[i], pix, rng),
+                         noisy(rig.project(Y, 1) + shift[i], pix, rng)});
       }
       std::vector<uint32_t> inliers(quads.size());
       for (uint32_t i = 0; i < inliers.size(); ++i) inliers[i] = i;
@@ -126,6 +154,7 @@ Trials run(int trials, bool with_prior, double pixel_noise_px) {
     if (!claim) return out;
     const Vector6d e = leftError(r2.T_prev_curr, T2) - leftError(r1.T_prev_curr, T1);
     out.nees_claim.push_back(nees(e, *claim));
+    out.variance_factor_mean += s2.variance_factor / trials;
     out.nees_keyframe_motion.push_back(nees(e, r2.covariance));
     out.trace_ratio += claim->bottomRightCorner<3, 3>().trace() / r2.covariance.bottomRightCorner<3, 3>().trace() / trials;
   }
@@ -135,7 +164,7 @@ Trials run(int trials, bool with_prior, double pixel_noise_px) {
 TEST(KeyframeIncrementCovariance, WithoutAPriorTheClaimFitsItsError) {
   // GIVEN 300 trials of two frames tracked against one keyframe, vision alone, the pixels as
   // noisy as the model says
-  const Trials t = run(300, false, kModelSigma);
+  const Trials t = run(300, false, PixelNoise{});
   ASSERT_EQ(t.nees_claim.size(), 300u);
   // THEN the claim's NEES median is that of a chi-square with 6 dof (5.35)
   EXPECT_GT(median(t.nees_claim), 4.3);
@@ -145,7 +174,7 @@ TEST(KeyframeIncrementCovariance, WithoutAPriorTheClaimFitsItsError) {
 TEST(KeyframeIncrementCovariance, TheSharedGyroPriorCancelsInTheClaim) {
   // GIVEN the same with the gyro since the keyframe as each motion's rotation prior, the later
   // prior extending the earlier one by an interval's independent error
-  const Trials t = run(300, true, kModelSigma);
+  const Trials t = run(300, true, PixelNoise{});
   ASSERT_EQ(t.nees_claim.size(), 300u);
   // THEN the claim fits, where the later frame's keyframe-to-frame covariance would be several
   // times too loose: the prior's share cancels in the increment
@@ -156,13 +185,36 @@ TEST(KeyframeIncrementCovariance, TheSharedGyroPriorCancelsInTheClaim) {
 
 TEST(KeyframeIncrementCovariance, TheClaimTakesThePixelNoiseTheResidualsShow) {
   // GIVEN pixels half as noisy as the refinement's model
-  const Trials t = run(300, true, 0.5 * kModelSigma);
+  const Trials t = run(300, true, PixelNoise{0.5 * kModelSigma});
   ASSERT_EQ(t.nees_claim.size(), 300u);
   // THEN the claim still fits (its pixel variance from the residuals), the model's would not
   EXPECT_GT(median(t.nees_claim), 4.3);
   EXPECT_LT(median(t.nees_claim), 6.5);
   EXPECT_LT(median(t.nees_keyframe_motion), 1.5);
   EXPECT_LT(t.trace_ratio, 0.5);
+}
+
+TEST(KeyframeIncrementCovariance, TemplateAlignedPixelsFitTheirNoiseModel) {
+  // GIVEN pixels as patch refinement makes them: the keyframe-left pixel off by the detector's
+  // 0.25 px, the other three following it with an alignment noise of 0.05 px of their own (the
+  // keyframe-right one shared by both frames); 1500 trials, so that the mean NEES is known to
+  // about 0.1
+  PixelNoise noise{0.05, 0.25, true};
+  const Trials t = run(1500, true, noise);
+  ASSERT_EQ(t.nees_claim.size(), 1500u);
+  const double alignment_factor = 0.05 * 0.05 / (kModelSigma * kModelSigma);
+  // THEN the claim under the template-aligned noise model finds the alignment's variance in
+  // the residuals and fits: mean NEES that of a chi-square with 6 dof
+  EXPECT_NEAR(t.variance_factor_mean, alignment_factor, 0.05 * alignment_factor);
+  EXPECT_NEAR(mean(t.nees_claim), 6.0, 0.4);
+  // WHEN the claim takes all eight pixels as equally and independently noisy instead
+  noise.claim_template_aligned = false;
+  const Trials iid = run(1500, true, noise);
+  ASSERT_EQ(iid.nees_claim.size(), 1500u);
+  // THEN it is too tight: the keyframe-left pixel's share of the residual degrees of freedom,
+  // counted as noise, lowers the variance it takes by a quarter
+  EXPECT_LT(iid.variance_factor_mean, 0.85 * alignment_factor);
+  EXPECT_GT(mean(iid.nees_claim), 6.4);
 }
 
 }  // namespace
