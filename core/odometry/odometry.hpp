@@ -193,8 +193,8 @@ class Odometry {
 
   const Frontend& frontend() const { return frontend_; }
   /// The frontend's two image sides and the frame-to-frame RANSACs' hypotheses run on
-  /// `parallel` (nullptr: on the calling thread); the poses do not depend on it. Not owned; the global refiner's RANSAC,
-  /// which may run on another thread, stays on its own.
+  /// `parallel` (nullptr: on the calling thread); the poses do not depend on it. Not owned; the
+  /// global refiner's RANSAC, which may run on another thread, stays on its own.
   void setParallelFor(ParallelFor* parallel) {
     parallel_ = parallel;
     ransac_.setParallelFor(parallel);
