@@ -73,7 +73,11 @@ Odometry::Odometry(camera::StereoRectifier rectifier, const imu::ImuNoise& imu_n
         // the very visual motions that tell the filter its velocity.
         e.initial_velocity_sigma_m_s = params.rig.max_speed_m_s;
         return e;
-      }()) {}
+      }()) {
+  // Patch refinement aligns the other three pixels of each match to its reference-left
+  // template: the published claim's noise model (ReferenceSensitivity); the fit is the same.
+  params_.refinement.template_aligned = params_.patch_refinement;
+}
 
 GlobalRefiner Odometry::makeGlobalRefiner(NowNsFn now) const {
   return GlobalRefiner(frontend_.rig(), globalRefinerParams(params_), std::move(now));

@@ -35,12 +35,8 @@ void Odometry::refineWithRotationPrior(FrameTrack& t) {
     prior.covariance = t.reference.gyro_covariance + t.prediction.covariance.topLeftCorner<3, 3>() +
                        keyframeBiasCovariance(filter_.covariance().block<3, 3>(imu::kEsBg, imu::kEsBg),
                                               rig.T_B_R0.rotation(), t.prediction.dt_s, t.reference.dt_s);
-    // Patch refinement aligned the other three pixels of each match to its reference-left
-    // template: the claim's noise model (ReferenceSensitivity); the fit is the same.
-    MotionRefinementParams refinement = params_.refinement;
-    refinement.template_aligned = params_.patch_refinement;
     const MotionRefinementResult refined = refineMotion(rig, work_.quads, ransac.inliers, t.T_ref_curr, prior,
-                                                        refinement, work_.refinement, &work_.sensitivity);
+                                                        params_.refinement, work_.refinement, &work_.sensitivity);
     if (refined.ok) {
       t.T_ref_curr = refined.T_prev_curr;
       t.rel_cov = refined.covariance;
